@@ -1,0 +1,17 @@
+//! beamstop: vibro-impacting flexible beams as FMI 2.0 co-simulation units.
+//!
+//! Data flows one way: [`scene`] (what the user describes) -> [`model`]
+//! (modal numbers) -> [`sim`] (state and events) -> [`fmi2`] (the C ABI).
+//! Nothing below `fmi2` knows about FMI.
+
+pub mod contact;
+pub mod interface;
+pub mod model;
+pub mod scene;
+pub mod sim;
+pub mod solve;
+pub mod structure;
+
+pub use model::Model;
+pub use scene::Scene;
+pub use sim::{Event, EventKind, SimError, Simulation};

@@ -1,0 +1,95 @@
+//! Loads projected on the modes: `f(t) = c + sum_h Re(b_h e^{i Omega_h t})`.
+
+use nalgebra::DVector;
+
+use super::oscillator::C64;
+
+/// One harmonic component: `Re(amplitude_j e^{i omega t})` on mode j.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Harmonic {
+    pub omega: f64,
+    pub amplitude: DVector<C64>,
+}
+
+/// The modal load vector as an explicit function of time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModalForcing {
+    /// Constant part (held inputs, static loads, preload of compliant stops).
+    pub constant: DVector<f64>,
+    pub harmonics: Vec<Harmonic>,
+}
+
+impl ModalForcing {
+    pub fn zero(n: usize) -> Self {
+        ModalForcing { constant: DVector::zeros(n), harmonics: Vec::new() }
+    }
+
+    pub fn len(&self) -> usize {
+        self.constant.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.constant.is_empty()
+    }
+
+    /// Adds `Re(amplitude e^{i omega t})`, merging equal frequencies.
+    pub fn add_harmonic(&mut self, omega: f64, amplitude: DVector<C64>) {
+        if let Some(h) = self.harmonics.iter_mut().find(|h| h.omega == omega) {
+            h.amplitude += amplitude;
+        } else {
+            self.harmonics.push(Harmonic { omega, amplitude });
+        }
+    }
+
+    /// `d^m f_j / dt^m` at time `t` for every mode, `m <= 3`.
+    pub fn derivative(&self, t: f64, m: u32, out: &mut DVector<f64>) {
+        if m == 0 {
+            out.copy_from(&self.constant);
+        } else {
+            out.fill(0.0);
+        }
+        for h in &self.harmonics {
+            // (i Omega)^m e^{i Omega t}
+            let factor = C64::from_polar(1.0, h.omega * t) * C64::new(0.0, h.omega).powu(m);
+            for (o, b) in out.iter_mut().zip(h.amplitude.iter()) {
+                *o += (b * factor).re;
+            }
+        }
+    }
+
+    /// `d^m f / dt^m` for m = 0..out.len() at time `t`, sharing the rotations.
+    pub fn derivatives(&self, t: f64, out: &mut [DVector<f64>]) {
+        for (m, o) in out.iter_mut().enumerate() {
+            if m == 0 {
+                o.copy_from(&self.constant);
+            } else {
+                o.fill(0.0);
+            }
+        }
+        for h in &self.harmonics {
+            let mut factor = C64::from_polar(1.0, h.omega * t);
+            let step = C64::new(0.0, h.omega);
+            for o in out.iter_mut() {
+                for (x, b) in o.iter_mut().zip(h.amplitude.iter()) {
+                    *x += b.re * factor.re - b.im * factor.im;
+                }
+                factor *= step;
+            }
+        }
+    }
+
+    /// Bounds `B[m][j] >= |d^m f_j / dt^m|` over all time, m = 0..=4.
+    pub fn bounds(&self) -> [DVector<f64>; 5] {
+        let n = self.len();
+        std::array::from_fn(|m| DVector::from_fn(n, |j, _| self.bound(j, m as u32)))
+    }
+
+    /// A bound on `|d^m f_j / dt^m|` over all time.
+    pub fn bound(&self, j: usize, m: u32) -> f64 {
+        let mut b = if m == 0 { self.constant[j].abs() } else { 0.0 };
+        for h in &self.harmonics {
+            b += h.amplitude[j].norm() * h.omega.powi(m as i32);
+        }
+        b
+    }
+}

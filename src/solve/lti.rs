@@ -1,0 +1,468 @@
+//! Coupled linear phases: `q'' + D q' + K q = f(t) + W lambda`, `W^T q = d`.
+//!
+//! Sticking (seed 000 eqs. 29-33) holds some contact points on their stops;
+//! a compliant stop in contact adds `k w w^T` to K (the mode-transfer idea of
+//! seed 001). Either way the phase is linear and time invariant, but with
+//! non-proportional damping: it is reduced to the free coordinates `y`
+//! (`q = q_c + Z y`, `Z` an orthonormal basis of the constraint's null space),
+//! diagonalised once in complex first-order form, and propagated exactly,
+//! `z_k(s) = e^{L_k s} z_k(0) + forced terms` with the `phi1` kernel, which is
+//! exact at resonance.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::forcing::ModalForcing;
+use super::free::ModalState;
+use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
+use super::oscillator::{phi1, C64};
+
+/// Why a coupled phase could not be set up.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LtiError {
+    Eigen(String),
+    IllConditioned(f64),
+}
+
+impl std::fmt::Display for LtiError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LtiError::Eigen(e) => write!(f, "eigendecomposition of the contact phase failed: {e}"),
+            LtiError::IllConditioned(c) => write!(
+                f,
+                "the contact phase is nearly defective (eigenvector condition number {c:.3e}); \
+                 change the damping slightly"
+            ),
+        }
+    }
+}
+
+/// The structure of one coupled phase, independent of the load and state.
+#[derive(Clone, Debug)]
+pub struct CoupledSystem {
+    n_modes: usize,
+    /// Constraint directions (columns) and their targets `W^T q = d`.
+    w: DMatrix<f64>,
+    /// `(W^T W)^-1`.
+    gram_inv: DMatrix<f64>,
+    /// Full stiffness and damping in modal coordinates.
+    k: DMatrix<f64>,
+    d: DMatrix<f64>,
+    /// Orthonormal basis of the free directions (N x n).
+    z: DMatrix<f64>,
+    /// Eigenvalues and eigenvectors of `[[0, I], [-Z'KZ, -Z'DZ]]`.
+    eig: DVector<C64>,
+    v: DMatrix<C64>,
+    v_inv: DMatrix<C64>,
+}
+
+impl CoupledSystem {
+    pub fn new(k: DMatrix<f64>, d: DMatrix<f64>, w: DMatrix<f64>) -> Result<Self, LtiError> {
+        let n_modes = k.nrows();
+        let m = w.ncols();
+        let z = if m == 0 {
+            DMatrix::identity(n_modes, n_modes)
+        } else {
+            let qr = w.clone().qr();
+            let q_full = full_q(&qr, n_modes);
+            q_full.columns(m, n_modes - m).into_owned()
+        };
+        let gram_inv = (w.transpose() * &w).try_inverse().unwrap_or_else(|| DMatrix::zeros(m, m));
+        let n = n_modes - m;
+        let ky = z.transpose() * &k * &z;
+        let dy = z.transpose() * &d * &z;
+        let (eig, v, v_inv) = if n == 0 {
+            (DVector::zeros(0), DMatrix::zeros(0, 0), DMatrix::zeros(0, 0))
+        } else {
+            let a = faer::Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| {
+                if i < n {
+                    if j == i + n {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                } else if j < n {
+                    -ky[(i - n, j)]
+                } else {
+                    -dy[(i - n, j - n)]
+                }
+            });
+            let e = a.eigen().map_err(|e| LtiError::Eigen(format!("{e:?}")))?;
+            let s = e.S();
+            let u = e.U();
+            let eig = DVector::from_fn(2 * n, |k, _| C64::new(s[k].re, s[k].im));
+            let mut v = DMatrix::from_fn(2 * n, 2 * n, |i, j| C64::new(u[(i, j)].re, u[(i, j)].im));
+            for mut col in v.column_iter_mut() {
+                let norm = col.norm();
+                col /= C64::new(norm, 0.0);
+            }
+            let v_inv = v.clone().try_inverse().ok_or(LtiError::IllConditioned(f64::INFINITY))?;
+            let cond = v.norm() * v_inv.norm();
+            if !(cond < 1e10) {
+                return Err(LtiError::IllConditioned(cond));
+            }
+            (eig, v, v_inv)
+        };
+        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv })
+    }
+
+    pub fn n_modes(&self) -> usize {
+        self.n_modes
+    }
+
+    fn n_free(&self) -> usize {
+        self.z.ncols()
+    }
+
+    /// `q_c`, the minimum-norm solution of `W^T q = targets`.
+    fn q_c(&self, targets: &DVector<f64>) -> DVector<f64> {
+        &self.w * (&self.gram_inv * targets)
+    }
+
+    /// The constraint reactions `lambda = -(W^T W)^-1 W^T (f - D qd - K q)`
+    /// (seed 000 eq. 33, one row per held contact) as functionals.
+    pub fn reaction_functionals(&self) -> Vec<Functional> {
+        let wg = &self.w * &self.gram_inv;
+        let kq = &self.k * &wg;
+        let dq = &self.d * &wg;
+        (0..self.w.ncols())
+            .map(|s| Functional {
+                offset: 0.0,
+                q: kq.column(s).into_owned(),
+                qd: Some(dq.column(s).into_owned()),
+                f: Some(-wg.column(s).into_owned()),
+            })
+            .collect()
+    }
+
+    /// Projects a state onto the constraints `W^T q = targets`, `W^T qd = 0`.
+    pub fn project(&self, targets: &DVector<f64>, state: &mut ModalState) {
+        if self.w.ncols() == 0 {
+            return;
+        }
+        let q_c = self.q_c(targets);
+        let zt = self.z.transpose();
+        state.q = &q_c + &self.z * (&zt * (&state.q - &q_c));
+        state.qd = &self.z * (&zt * &state.qd);
+    }
+}
+
+/// Builds the full orthogonal factor of a QR decomposition (nalgebra keeps a
+/// thin one): Householder reflections applied to the identity.
+fn full_q(qr: &nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>, n: usize) -> DMatrix<f64> {
+    let mut q = DMatrix::identity(n, n);
+    qr.q_tr_mul(&mut q);
+    q.transpose()
+}
+
+/// One harmonic load component in the complex modal coordinates, with the
+/// steady response `p_k e^{i W t}` of the coordinates far from resonance
+/// (`None` near it).
+#[derive(Clone, Debug, PartialEq)]
+struct ProjectedHarmonic {
+    omega: f64,
+    g: DVector<C64>,
+    steady: Vec<Option<C64>>,
+}
+
+/// The steady response `g / (i W - L)` of `z' = L z + g e^{i W t}`, unless
+/// the denominator is small (resonance), where it would amplify rounding.
+fn steady_amplitude(g: C64, eig: C64, omega: f64) -> Option<C64> {
+    let den = C64::new(0.0, omega) - eig;
+    if den.norm() > 1e-3 * (eig.norm() + omega.abs()) {
+        Some(g / den)
+    } else {
+        None
+    }
+}
+
+/// The complex coordinates and their loads at one instant.
+#[derive(Clone, Debug)]
+pub struct CoupledSample {
+    t: f64,
+    z: DVector<C64>,
+    /// `g^(m)(t)` for m = 0..=2.
+    loads: [DVector<C64>; 3],
+}
+
+/// The exact motion of a coupled phase from an anchor.
+#[derive(Clone, Debug)]
+pub struct CoupledSegment {
+    pub t0: f64,
+    q_c: DVector<f64>,
+    z0: DVector<C64>,
+    g_const: DVector<C64>,
+    const_steady: Vec<Option<C64>>,
+    harmonics: Vec<ProjectedHarmonic>,
+}
+
+impl CoupledSegment {
+    /// `targets` are the constraint values `W^T q` (the stops' positions).
+    pub fn new(
+        sys: &CoupledSystem,
+        forcing: &ModalForcing,
+        targets: &DVector<f64>,
+        t0: f64,
+        start: &ModalState,
+    ) -> Self {
+        let n = sys.n_free();
+        let q_c = sys.q_c(targets);
+        let zt = sys.z.transpose();
+        let y0 = &zt * (&start.q - &q_c);
+        let yd0 = &zt * &start.qd;
+        let x0 = DVector::from_fn(2 * n, |i, _| C64::new(if i < n { y0[i] } else { yd0[i - n] }, 0.0));
+        let z0 = &sys.v_inv * x0;
+        // Loads on y: Z^T (f(t) - K q_c), entering the velocity half.
+        let lift = |fy: DVector<C64>| -> DVector<C64> {
+            let x = DVector::from_fn(2 * n, |i, _| if i < n { C64::new(0.0, 0.0) } else { fy[i - n] });
+            &sys.v_inv * x
+        };
+        let kqc = &sys.k * &q_c;
+        let c = &zt * (&forcing.constant - kqc);
+        let g_const = lift(c.map(|x| C64::new(x, 0.0)));
+        let mut harmonics = Vec::new();
+        let mut push = |omega: f64, g: DVector<C64>| {
+            let steady = g.iter().zip(sys.eig.iter()).map(|(g, l)| steady_amplitude(*g, *l, omega)).collect();
+            harmonics.push(ProjectedHarmonic { omega, g, steady });
+        };
+        for h in &forcing.harmonics {
+            // Re(b e^{i W t}) = (b e^{i W t} + conj(b) e^{-i W t}) / 2.
+            let by = zt.map(|x| C64::new(x, 0.0)) * &h.amplitude;
+            let half = C64::new(0.5, 0.0);
+            push(h.omega, lift(by.map(|b| b * half)));
+            push(-h.omega, lift(by.map(|b| b.conj() * half)));
+        }
+        let const_steady = g_const.iter().zip(sys.eig.iter()).map(|(g, l)| steady_amplitude(*g, *l, 0.0)).collect();
+        CoupledSegment { t0, q_c, z0, g_const, const_steady, harmonics }
+    }
+
+    /// Complex modal coordinates at time `t`.
+    fn z_at(&self, sys: &CoupledSystem, t: f64) -> DVector<C64> {
+        let s = t - self.t0;
+        let mut z = DVector::from_fn(sys.eig.len(), |k, _| {
+            let l = sys.eig[k];
+            let ls = l * s;
+            ls.exp() * self.z0[k] + self.g_const[k] * phi1(ls) * s
+        });
+        for h in &self.harmonics {
+            let rot0 = C64::from_polar(1.0, h.omega * self.t0);
+            let rot = C64::from_polar(1.0, h.omega * s);
+            for k in 0..z.len() {
+                let mu = (sys.eig[k] - C64::new(0.0, h.omega)) * s;
+                z[k] += h.g[k] * rot0 * rot * phi1(mu) * s;
+            }
+        }
+        z
+    }
+
+    /// Loads on the complex coordinates at time `t`, and their derivatives.
+    fn load_derivative(&self, t: f64, m: u32) -> DVector<C64> {
+        let mut g = if m == 0 { self.g_const.clone() } else { DVector::zeros(self.g_const.len()) };
+        for h in &self.harmonics {
+            let factor = C64::from_polar(1.0, h.omega * t) * C64::new(0.0, h.omega).powu(m);
+            g += h.g.map(|x| x * factor);
+        }
+        g
+    }
+
+    pub fn state_at(&self, sys: &CoupledSystem, t: f64, out: &mut ModalState) {
+        let n = sys.n_free();
+        let x = &sys.v * self.z_at(sys, t);
+        let y = DVector::from_fn(n, |i, _| x[i].re);
+        let yd = DVector::from_fn(n, |i, _| x[i + n].re);
+        out.q = &self.q_c + &sys.z * y;
+        out.qd = &sys.z * yd;
+    }
+
+    /// A functional in the complex coordinates: `h = offset + Re(c . z) + f-part`.
+    pub fn project_functional(&self, sys: &CoupledSystem, h: &Functional) -> ProjectedFunctional {
+        let n = sys.n_free();
+        let aq = sys.z.transpose() * &h.q;
+        let bq = h.qd.as_ref().map(|b| sys.z.transpose() * b);
+        let c = DVector::from_fn(2 * n, |k, _| {
+            let mut s = C64::new(0.0, 0.0);
+            for i in 0..n {
+                s += sys.v[(i, k)] * aq[i];
+                if let Some(b) = &bq {
+                    s += sys.v[(i + n, k)] * b[i];
+                }
+            }
+            s
+        });
+        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, f: h.f.clone() }
+    }
+
+    /// The complex coordinates and loads at time `t`, shared by the jets and
+    /// bounds of every event function there.
+    pub fn sample(&self, sys: &CoupledSystem, t: f64) -> CoupledSample {
+        CoupledSample { t, z: self.z_at(sys, t), loads: std::array::from_fn(|m| self.load_derivative(t, m as u32)) }
+    }
+
+    /// `h, h', h'', h'''` at the sample's time.
+    pub fn jet(&self, sys: &CoupledSystem, forcing: &ModalForcing, p: &ProjectedFunctional, sample: &CoupledSample) -> Jet {
+        let t = sample.t;
+        let mut jet = Jet::default();
+        let mut zm = sample.z.clone();
+        let mut fbuf = DVector::zeros(forcing.len());
+        for m in 0..4 {
+            if m > 0 {
+                // z^(m) = L z^(m-1) + g^(m-1)
+                for k in 0..zm.len() {
+                    zm[k] = sys.eig[k] * zm[k] + sample.loads[m - 1][k];
+                }
+            }
+            let mut value = if m == 0 { p.offset } else { 0.0 };
+            let mut size = value.abs();
+            for k in 0..zm.len() {
+                let term = p.c[k] * zm[k];
+                value += term.re;
+                size += term.norm();
+            }
+            if let Some(cf) = &p.f {
+                forcing.derivative(t, m as u32, &mut fbuf);
+                value += cf.dot(&fbuf);
+                size += cf.iter().zip(fbuf.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+            }
+            jet.d[m] = value;
+            jet.noise[m] = NOISE * size;
+        }
+        jet.with_time_uncertainty(t)
+    }
+
+    /// Per-coordinate bounds on `|z_k^(m)|`, m = 2..=4, over `[t, t + tau]`.
+    /// Each coordinate is its steady response to the non-resonant loads,
+    /// known exactly, plus a remainder `r' = L r + g_res` with `Re L <= 0`:
+    /// `|r| <= |r(t)| + tau max|g_res|` and
+    /// `r^(m) = L^m r + sum_i L^(m-1-i) g_res^(i)`.
+    pub fn coordinate_bounds(&self, sys: &CoupledSystem, sample: &CoupledSample, tau: f64) -> Vec<[f64; 3]> {
+        let t = sample.t;
+        let rotations: Vec<C64> = self.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t)).collect();
+        (0..sample.z.len())
+            .map(|k| {
+                let l = sys.eig[k].norm();
+                let mut zp = C64::new(0.0, 0.0);
+                let mut steady = [0.0f64; 5];
+                let mut resonant = [0.0f64; 4];
+                let mut size = 0.0;
+                match self.const_steady[k] {
+                    Some(p) => {
+                        zp += p;
+                        size += p.norm();
+                    }
+                    None => resonant[0] += self.g_const[k].norm(),
+                }
+                for (h, rot) in self.harmonics.iter().zip(&rotations) {
+                    match h.steady[k] {
+                        Some(p) => {
+                            zp += p * rot;
+                            size += p.norm();
+                            let mut a = p.norm();
+                            for m in steady.iter_mut() {
+                                *m += a;
+                                a *= h.omega.abs();
+                            }
+                        }
+                        None => {
+                            let mut a = h.g[k].norm();
+                            for m in resonant.iter_mut() {
+                                *m += a;
+                                a *= h.omega.abs();
+                            }
+                        }
+                    }
+                }
+                let growth = (sys.eig[k].re.max(0.0) * tau).exp();
+                let r = growth * ((sample.z[k] - zp).norm() + NOISE * size + resonant[0] * tau);
+                let mut out = [0.0; 3];
+                for (slot, m) in (2..5).enumerate() {
+                    let mut b = l.powi(m as i32) * r;
+                    for i in 0..m {
+                        b += l.powi((m - 1 - i) as i32) * resonant[i];
+                    }
+                    out[slot] = b + steady[m];
+                }
+                out
+            })
+            .collect()
+    }
+
+    /// Bounds on `|h''|, |h'''|, |h''''|` over `[t, t + tau]`.
+    pub fn bounds(&self, forcing: &ModalForcing, p: &ProjectedFunctional, coords: &[[f64; 3]], tau: f64) -> DerivativeBounds {
+        let mut out = DerivativeBounds { tau, m: [0.0; 3] };
+        for (c, b) in p.c.iter().zip(coords) {
+            let c = c.norm();
+            for slot in 0..3 {
+                out.m[slot] += c * b[slot];
+            }
+        }
+        if let Some(cf) = &p.f {
+            for (slot, m) in (2..5).enumerate() {
+                out.m[slot] += cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum::<f64>();
+            }
+        }
+        out
+    }
+}
+
+/// A functional expressed in a coupled segment's complex coordinates.
+#[derive(Clone, Debug)]
+pub struct ProjectedFunctional {
+    offset: f64,
+    c: DVector<C64>,
+    f: Option<DVector<f64>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::dvector;
+
+    /// Independent reference: RK4 on the full constrained equations
+    /// `q'' = P (f - D q' - K q)` with `P = I - w w^T / w.w`.
+    #[test]
+    fn sticking_phase_matches_projected_rk4() {
+        let n = 3;
+        let k = DMatrix::from_diagonal(&dvector![1.0, 16.0, 81.0]);
+        let d = DMatrix::from_diagonal(&dvector![0.1, 0.4, 0.9]);
+        let w = DMatrix::from_column_slice(3, 1, &[1.2, -0.7, 0.4]);
+        let sys = CoupledSystem::new(k.clone(), d.clone(), w.clone()).unwrap();
+        let mut forcing = ModalForcing::zero(n);
+        forcing.constant = dvector![0.5, 0.1, -0.2];
+        forcing.add_harmonic(3.0, dvector![C64::new(0.0, -1.0), C64::new(0.3, 0.0), C64::new(0.0, 0.2)]);
+        let targets = dvector![0.25];
+        let mut start = ModalState { q: dvector![0.3, -0.1, 0.05], qd: dvector![0.2, 0.1, -0.4] };
+        sys.project(&targets, &mut start);
+        assert!((w.column(0).dot(&start.q) - 0.25).abs() < 1e-15);
+        let t0 = 0.4;
+        let seg = CoupledSegment::new(&sys, &forcing, &targets, t0, &start);
+        let mut out = ModalState::zeros(n);
+        let t1 = 2.9;
+        seg.state_at(&sys, t1, &mut out);
+
+        let wv = w.column(0).into_owned();
+        let p = DMatrix::identity(n, n) - &wv * wv.transpose() / wv.dot(&wv);
+        let mut f = DVector::zeros(n);
+        let mut acc = |t: f64, q: &DVector<f64>, v: &DVector<f64>| -> DVector<f64> {
+            forcing.derivative(t, 0, &mut f);
+            &p * (&f - &d * v - &k * q)
+        };
+        let steps = 100_000;
+        let h = (t1 - t0) / steps as f64;
+        let (mut q, mut v) = (start.q.clone(), start.qd.clone());
+        for i in 0..steps {
+            let t = t0 + i as f64 * h;
+            let k1v = acc(t, &q, &v);
+            let k1q = v.clone();
+            let k2v = acc(t + h / 2.0, &(&q + &k1q * (h / 2.0)), &(&v + &k1v * (h / 2.0)));
+            let k2q = &v + &k1v * (h / 2.0);
+            let k3v = acc(t + h / 2.0, &(&q + &k2q * (h / 2.0)), &(&v + &k2v * (h / 2.0)));
+            let k3q = &v + &k2v * (h / 2.0);
+            let k4v = acc(t + h, &(&q + &k3q * h), &(&v + &k3v * h));
+            let k4q = &v + &k3v * h;
+            q += (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
+            v += (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+        }
+        assert!((&out.q - &q).norm() < 1e-11, "{} vs {}", out.q, q);
+        assert!((&out.qd - &v).norm() < 1e-10);
+        assert!((wv.dot(&out.q) - 0.25).abs() < 1e-14);
+    }
+}

@@ -1,0 +1,18 @@
+//! Exact propagators and guaranteed event location.
+//!
+//! Between events every phase is linear: free flight is a set of uncoupled
+//! damped oscillators ([`free`]); sticking and compliant contact couple the
+//! modes ([`lti`]). Both are propagated in closed form from the state at the
+//! last event, and [`events`] finds the next switch of any of them.
+
+pub mod events;
+pub mod forcing;
+pub mod free;
+pub mod functional;
+pub mod lti;
+pub mod oscillator;
+
+pub use forcing::{Harmonic, ModalForcing};
+pub use free::{FreeDynamics, FreeSegment, ModalState};
+pub use functional::{DerivativeBounds, Functional, Jet};
+pub use oscillator::{Oscillator, C64};

@@ -1,0 +1,205 @@
+//! Exact solution of one damped modal oscillator
+//! `x'' + 2 zeta omega x' + omega^2 x = f(t)` (seed 000 eq. 13, seed 003 eq. 4).
+//!
+//! Every formula here is free of catastrophic cancellation, whatever the
+//! damping (zero, critical, strongly over-critical) and however close the
+//! forcing is to resonance (numerics.md, "Damped oscillator, exact
+//! propagation").
+
+use nalgebra::Complex;
+
+pub type C64 = Complex<f64>;
+
+/// `expm1` of a complex argument, accurate for small `|z|`.
+pub fn expm1_c(z: C64) -> C64 {
+    let em = z.re.exp_m1();
+    let (sy, cy) = z.im.sin_cos();
+    let half = (0.5 * z.im).sin();
+    // e^x cos y - 1 = expm1(x) cos y - 2 sin^2(y/2): no cancellation for x <= 0.
+    C64::new(em * cy - 2.0 * half * half, (em + 1.0) * sy)
+}
+
+/// `phi1(z) = (e^z - 1) / z`, the exponential integral kernel.
+pub fn phi1(z: C64) -> C64 {
+    let r = z.norm();
+    if r < 1e-5 {
+        C64::new(1.0, 0.0) + z * 0.5 + z * z / 6.0
+    } else {
+        expm1_c(z) / z
+    }
+}
+
+/// `(cos sqrt(q), sin sqrt(q) / sqrt(q))` continued to `q < 0` as cosh / sinh,
+/// with the Taylor series near `q = 0` (critical damping).
+fn c0_s0(q: f64) -> (f64, f64) {
+    if q.abs() < 1e-2 {
+        let c = 1.0 - q / 2.0 * (1.0 - q / 12.0 * (1.0 - q / 30.0 * (1.0 - q / 56.0 * (1.0 - q / 90.0))));
+        let s = 1.0 - q / 6.0 * (1.0 - q / 20.0 * (1.0 - q / 42.0 * (1.0 - q / 72.0 * (1.0 - q / 110.0))));
+        (c, s)
+    } else if q > 0.0 {
+        let r = q.sqrt();
+        (r.cos(), r.sin() / r)
+    } else {
+        let r = (-q).sqrt();
+        (r.cosh(), r.sinh() / r)
+    }
+}
+
+/// One damped oscillator: frequency `omega > 0`, damping ratio `zeta >= 0`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Oscillator {
+    pub omega: f64,
+    pub zeta: f64,
+    /// Decay rate `a = zeta omega`.
+    pub a: f64,
+    /// `omega^2 (1 - zeta)(1 + zeta)`: positive when under-damped.
+    dd: f64,
+    /// `sqrt(|dd|)`: the damped frequency, or the over-damped spread `mu`.
+    root: f64,
+}
+
+impl Oscillator {
+    pub fn new(omega: f64, zeta: f64) -> Self {
+        let dd = omega * omega * (1.0 - zeta) * (1.0 + zeta);
+        Oscillator { omega, zeta, a: zeta * omega, dd, root: dd.abs().sqrt() }
+    }
+
+    pub fn is_underdamped(&self) -> bool {
+        self.dd > 0.0
+    }
+
+    /// The damped natural frequency `omega sqrt(1 - zeta^2)` (0 when over-damped).
+    pub fn damped_frequency(&self) -> f64 {
+        if self.dd > 0.0 {
+            self.root
+        } else {
+            0.0
+        }
+    }
+
+    /// Free-response kernels `(Ec, Es)` at time `t >= 0`:
+    /// `x = x0 Ec + (v0 + a x0) Es`, `v = v0 Ec - (a v0 + omega^2 x0) Es`.
+    pub fn kernels(&self, t: f64) -> (f64, f64) {
+        let r = self.root * t;
+        if self.dd < 0.0 && r > 2.0 {
+            // Strongly over-damped: separate slow and fast rates (numerics.md).
+            let mu = self.root;
+            let slow = self.omega * self.omega / (self.a + mu);
+            let fast = self.a + mu;
+            let es_slow = (-slow * t).exp();
+            let ec = 0.5 * (es_slow + (-fast * t).exp());
+            let es = es_slow * (-(-2.0 * mu * t).exp_m1()) / (2.0 * mu);
+            return (ec, es);
+        }
+        let q = if self.dd >= 0.0 { r * r } else { -r * r };
+        let (c0, s0) = c0_s0(q);
+        let e = (-self.a * t).exp();
+        (e * c0, e * t * s0)
+    }
+
+    /// Free response `(x, v)` at time `t` from `(x0, v0)` at time 0.
+    pub fn free(&self, x0: f64, v0: f64, t: f64) -> (f64, f64) {
+        let (ec, es) = self.kernels(t);
+        (
+            x0 * ec + (v0 + self.a * x0) * es,
+            v0 * ec - (self.a * v0 + self.omega * self.omega * x0) * es,
+        )
+    }
+
+    /// Whether the steady-state amplitude `1 / (omega^2 - Omega^2 + 2 i a Omega)`
+    /// would amplify rounding by more than 2: then the response to a harmonic
+    /// load is taken from [`Self::harmonic_from_rest`] instead.
+    pub fn near_resonance(&self, forcing_omega: f64) -> bool {
+        self.is_underdamped() && self.zeta < 0.5 && self.dynamic_stiffness(forcing_omega).norm() < 0.5 * self.omega * self.omega
+    }
+
+    /// `omega^2 - Omega^2 + 2 i a Omega`.
+    pub fn dynamic_stiffness(&self, forcing_omega: f64) -> C64 {
+        C64::new(
+            (self.omega - forcing_omega) * (self.omega + forcing_omega),
+            2.0 * self.a * forcing_omega,
+        )
+    }
+
+    /// Response `(G, G')` at time `s` to the load `e^{i Omega s}` starting from
+    /// rest, `G(s) = int_0^s Es(u) e^{i Omega (s - u)} du`, written as
+    /// `e^{i Omega s} (E1 - E2) / (lambda1 - lambda2)` with
+    /// `Ek = s phi1((lambda_k - i Omega) s)`: exact at resonance, even undamped.
+    /// Under-damped oscillators only.
+    pub fn harmonic_from_rest(&self, forcing_omega: f64, s: f64, rotation: C64) -> (C64, C64) {
+        debug_assert!(self.is_underdamped());
+        let wd = self.root;
+        let mu1 = C64::new(-self.a * s, (wd - forcing_omega) * s);
+        let mu2 = C64::new(-self.a * s, -(wd + forcing_omega) * s);
+        let diff = (phi1(mu1) - phi1(mu2)) * s;
+        let g = rotation * diff / C64::new(0.0, 2.0 * wd);
+        let (_, es) = self.kernels(s);
+        let gd = C64::new(0.0, forcing_omega) * g + es;
+        (g, gd)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Independent reference: classical RK4 with a tiny step.
+    fn rk4(osc: &Oscillator, x0: f64, v0: f64, t: f64, f: impl Fn(f64) -> f64) -> (f64, f64) {
+        let n = 200_000;
+        let h = t / n as f64;
+        let (mut x, mut v) = (x0, v0);
+        let w2 = osc.omega * osc.omega;
+        let acc = |t: f64, x: f64, v: f64| f(t) - 2.0 * osc.a * v - w2 * x;
+        for i in 0..n {
+            let t = i as f64 * h;
+            let (k1x, k1v) = (v, acc(t, x, v));
+            let (k2x, k2v) = (v + 0.5 * h * k1v, acc(t + 0.5 * h, x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+            let (k3x, k3v) = (v + 0.5 * h * k2v, acc(t + 0.5 * h, x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+            let (k4x, k4v) = (v + h * k3v, acc(t + h, x + h * k3x, v + h * k3v));
+            x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+            v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        }
+        (x, v)
+    }
+
+    #[test]
+    fn free_response_matches_rk4_for_every_damping_regime() {
+        for &zeta in &[0.0, 0.05, 0.999_999, 1.0, 1.000_001, 1.5, 30.0] {
+            let osc = Oscillator::new(3.0, zeta);
+            let (x, v) = osc.free(0.7, -1.3, 2.1);
+            let (xr, vr) = rk4(&osc, 0.7, -1.3, 2.1, |_| 0.0);
+            assert!((x - xr).abs() < 1e-11 && (v - vr).abs() < 1e-10, "zeta {zeta}: {x} {xr} {v} {vr}");
+        }
+    }
+
+    #[test]
+    fn resonant_response_matches_rk4_undamped_at_exact_resonance() {
+        let osc = Oscillator::new(2.0, 0.0);
+        let s = 3.7;
+        let (g, gd) = osc.harmonic_from_rest(2.0, s, C64::from_polar(1.0, 2.0 * s));
+        // Load Re(e^{2 i t}) = cos 2t from rest: x = t sin(2t) / 4.
+        let (xr, vr) = rk4(&osc, 0.0, 0.0, s, |t| (2.0 * t).cos());
+        assert!((g.re - xr).abs() < 1e-11, "{} {}", g.re, xr);
+        assert!((gd.re - vr).abs() < 1e-10);
+        assert!((g.re - s * (2.0 * s).sin() / 4.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn near_critical_kernels_are_continuous() {
+        let below = Oscillator::new(5.0, 1.0 - 1e-12).kernels(0.8);
+        let at = Oscillator::new(5.0, 1.0).kernels(0.8);
+        let above = Oscillator::new(5.0, 1.0 + 1e-12).kernels(0.8);
+        assert!((below.0 - at.0).abs() < 1e-12 && (above.1 - at.1).abs() < 1e-12 && (below.1 - above.1).abs() < 1e-12);
+        // Critical damping closed form: Es = t e^{-omega t}.
+        assert!((at.1 - 0.8 * (-4.0f64).exp()).abs() < 1e-16);
+    }
+
+    #[test]
+    fn phi1_small_and_large() {
+        let z = C64::new(-1e-7, 3e-7);
+        let exact = C64::new(1.0, 0.0) + z / 2.0 + z * z / 6.0;
+        assert!((phi1(z) - exact).norm() < 1e-16);
+        let z = C64::new(-2.0, 1.0);
+        assert!((phi1(z) - (z.exp() - 1.0) / z).norm() < 1e-15);
+    }
+}
