@@ -326,3 +326,30 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
     out.push(real(OutputKey::Energy, named(&scene.names, "", "energy"), "Kinetic plus strain energy of the beam".into()));
     out
 }
+
+/// The value of an output.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    Real(f64),
+    Integer(i64),
+    Boolean(bool),
+}
+
+impl OutputKey {
+    /// Reads the output from a simulation at its current time.
+    pub fn evaluate(&self, sim: &crate::sim::Simulation) -> Value {
+        let c = sim.current();
+        let stops = &sim.model().stops;
+        match *self {
+            OutputKey::StopDisplacement(i) => Value::Real(stops[i].w.dot(&c.q)),
+            OutputKey::StopVelocity(i) => Value::Real(stops[i].w.dot(&c.qd)),
+            OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
+            OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
+            OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
+            OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
+            OutputKey::Q(j) => Value::Real(c.q[j]),
+            OutputKey::Qd(j) => Value::Real(c.qd[j]),
+            OutputKey::Energy => Value::Real(sim.energy()),
+        }
+    }
+}

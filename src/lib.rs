@@ -5,8 +5,10 @@
 //! Nothing below `fmi2` knows about FMI.
 
 pub mod contact;
+pub mod fmi2;
 pub mod interface;
 pub mod model;
+pub mod package;
 pub mod scene;
 pub mod sim;
 pub mod solve;

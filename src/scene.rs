@@ -31,6 +31,9 @@ pub struct Scene {
     pub initial: Initial,
     #[serde(default)]
     pub solver: Solver,
+    /// The default experiment of the FMU (and of `beamstop run`).
+    #[serde(default)]
+    pub experiment: Experiment,
     /// Renames of the model-wide variables (`energy`, `q[{j}]`, ...).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub names: BTreeMap<String, String>,
@@ -166,6 +169,22 @@ impl Default for Solver {
     }
 }
 
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Experiment {
+    #[serde(default)]
+    pub start: f64,
+    pub stop: f64,
+    /// Communication step.
+    pub step: f64,
+}
+
+impl Default for Experiment {
+    fn default() -> Self {
+        Experiment { start: 0.0, stop: 20.0, step: 0.01 }
+    }
+}
+
 /// A scene that failed to load or validate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneError(pub String);
@@ -219,8 +238,8 @@ impl Range {
 
 impl fmt::Display for Range {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let lo = if self.min_open { '(' } else { '[' };
-        let hi = if self.max_open { ')' } else { ']' };
+        let lo = if self.min_open || self.min.is_infinite() { '(' } else { '[' };
+        let hi = if self.max_open || self.max.is_infinite() { ')' } else { ']' };
         let num = |x: f64| if x.is_infinite() { if x > 0.0 { "inf".to_string() } else { "-inf".to_string() } } else { format!("{x}") };
         write!(f, "{lo}{}, {}{hi}", num(self.min), num(self.max))
     }
@@ -303,6 +322,12 @@ impl Scene {
         for p in crate::interface::parameters(self) {
             p.range.check(&format!("{} ({})", p.scene_path, p.name), p.key.get(self)).map_err(SceneError)?;
         }
+        let e = &self.experiment;
+        Range::ANY.check("experiment.start", e.start).map_err(SceneError)?;
+        if !(e.stop > e.start) || !e.stop.is_finite() {
+            return err(format!("experiment.stop = {}: must be finite and > experiment.start = {}", e.stop, e.start));
+        }
+        Range::POSITIVE.check("experiment.step", e.step).map_err(SceneError)?;
         let solver_tol = self.solver.event_tolerance;
         Range::NON_NEGATIVE.check("solver.event_tolerance", solver_tol).map_err(SceneError)?;
         if self.solver.max_events_per_step == 0 {

@@ -362,7 +362,6 @@ impl Simulation {
         }
         let system = self.coupled_system(mask)?;
         let targets = self.stuck_targets(mask);
-        system.project(&targets, &mut self.state.anchor);
         let segment = CoupledSegment::new(&system, &self.dynamics.forcing, &targets, self.state.anchor_time, &self.state.anchor);
         let mut reactions_by_column = system.reaction_functionals().into_iter();
         let mut events = Vec::new();
@@ -628,6 +627,12 @@ impl Simulation {
         }
         let newly_stuck = stuck & !self.state.stuck;
         departing |= newly_stuck;
+        if stuck != 0 {
+            // Exactly on the held stops, moving along them (numerics.md:
+            // project at entry so no drift accumulates).
+            let system = self.coupled_system(stuck)?;
+            system.project(&self.stuck_targets(stuck), &mut st);
+        }
         self.state.stuck = stuck;
         self.state.anchor = st;
         self.state.anchor_time = t;

@@ -1,1 +1,197 @@
-fn main() {}
+//! The beamstop command line.
+//!
+//!   beamstop package [scene.json ...]   build FMUs into target/fmu (default: every scene in scenes/)
+//!   beamstop run [scene.json] [--stop T] [--step H] [--out DIR]
+//!                                        simulate a scene natively, write CSV results
+//!   beamstop describe scene.json         print the modelDescription.xml of a scene
+//!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml for scenes/
+//!   beamstop check scene.json ...        validate scenes
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use beamstop::fmi2::description::model_description;
+use beamstop::interface::{self, Value};
+use beamstop::package::write_fmu;
+use beamstop::{EventKind, Model, Scene, Simulation};
+
+const USAGE: &str = "usage:
+  beamstop package [scene.json ...]      build FMUs into target/fmu (default: every scene in scenes/)
+  beamstop run [scene.json] [--stop T] [--step H] [--out DIR]
+                                          simulate a scene natively (default: scenes/pinned_beam.json)
+  beamstop describe scene.json           print the scene's modelDescription.xml
+  beamstop model-descriptions            rewrite modelDescription/<Name>.xml for every scene in scenes/
+  beamstop check scene.json ...          validate scene files";
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn load(path: &Path) -> Result<Scene, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Every scene file in scenes/, sorted.
+fn builtin_scenes() -> Result<Vec<PathBuf>, String> {
+    let dir = root().join("scenes");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| format!("{}: {e}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "json"))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// The cdylib built alongside this executable.
+fn fmu_binary() -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let dir = exe.parent().ok_or("no executable directory")?;
+    let name = format!("{}beamstop{}", std::env::consts::DLL_PREFIX, std::env::consts::DLL_SUFFIX);
+    let path = dir.join(&name);
+    if path.exists() {
+        Ok(path)
+    } else {
+        Err(format!("{} not found next to {}: build with `cargo build --release` first", name, exe.display()))
+    }
+}
+
+fn package(args: &[String]) -> Result<(), String> {
+    let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
+    // Validate everything first: no FMU is written from an invalid scene.
+    let scenes: Vec<Scene> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
+    let binary = fmu_binary()?;
+    let out = root().join("target").join("fmu");
+    for scene in &scenes {
+        let path = write_fmu(scene, &binary, &out)?;
+        println!("{}", path.display());
+    }
+    Ok(())
+}
+
+fn flag(args: &[String], name: &str) -> Result<Option<String>, String> {
+    match args.iter().position(|a| a == name) {
+        None => Ok(None),
+        Some(i) => args.get(i + 1).cloned().map(Some).ok_or(format!("{name} needs a value")),
+    }
+}
+
+fn number(args: &[String], name: &str) -> Result<Option<f64>, String> {
+    flag(args, name)?.map(|s| s.parse::<f64>().map_err(|_| format!("{name} {s}: not a number"))).transpose()
+}
+
+fn run(args: &[String]) -> Result<(), String> {
+    let positional: Vec<&String> = {
+        let mut v = Vec::new();
+        let mut skip = false;
+        for a in args {
+            if skip {
+                skip = false;
+            } else if a.starts_with("--") {
+                skip = true;
+            } else {
+                v.push(a);
+            }
+        }
+        v
+    };
+    let file = positional.first().map(PathBuf::from).unwrap_or_else(|| root().join("scenes").join("pinned_beam.json"));
+    let scene = load(&file)?;
+    let stop = number(args, "--stop")?.unwrap_or(scene.experiment.stop);
+    let step = number(args, "--step")?.unwrap_or(scene.experiment.step);
+    if !(step > 0.0) {
+        return Err(format!("--step {step}: must be > 0"));
+    }
+    let out_dir = flag(args, "--out")?.map(PathBuf::from).unwrap_or_else(|| root().join("target").join("results"));
+    std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let model = Model::build(&scene).map_err(|e| e.0)?;
+    let start = scene.experiment.start;
+    let mut sim = Simulation::new(model, start).map_err(|e| e.to_string())?;
+    let outputs = interface::outputs(&scene);
+    let mut csv = String::from("time");
+    for o in &outputs {
+        csv.push(',');
+        csv.push_str(&o.name);
+    }
+    csv.push('\n');
+    let mut events = String::from("time,event,stop,detail\n");
+    let clock = std::time::Instant::now();
+    let n = ((stop - start) / step).round() as u64;
+    for k in 0..=n {
+        let t = if k == n { stop } else { start + k as f64 * step };
+        sim.advance_to(t).map_err(|e| e.to_string())?;
+        csv.push_str(&format!("{t}"));
+        for o in &outputs {
+            let v = match o.key.evaluate(&sim) {
+                Value::Real(x) => format!("{x}"),
+                Value::Integer(i) => format!("{i}"),
+                Value::Boolean(b) => format!("{}", b as u8),
+            };
+            csv.push(',');
+            csv.push_str(&v);
+        }
+        csv.push('\n');
+        for e in sim.drain_events() {
+            let (kind, stop, detail) = match e.kind {
+                EventKind::Impact { stop, speed, restitution, chatter, .. } => {
+                    ("impact", stop, format!("speed={speed:e} R={restitution}{}", if chatter { " chatter-end" } else { "" }))
+                }
+                EventKind::Stick { stop, reaction } => ("stick", stop, format!("reaction={reaction:e}")),
+                EventKind::Release { stop } => ("release", stop, String::new()),
+                EventKind::Graze { stop } => ("graze", stop, String::new()),
+            };
+            events.push_str(&format!("{:.17},{kind},{},{detail}\n", e.time, scene.stops[stop].name));
+        }
+    }
+    let elapsed = clock.elapsed();
+    let results = out_dir.join(format!("{}.csv", scene.name));
+    let event_file = out_dir.join(format!("{}_events.csv", scene.name));
+    std::fs::write(&results, csv).map_err(|e| format!("{}: {e}", results.display()))?;
+    std::fs::write(&event_file, events).map_err(|e| format!("{}: {e}", event_file.display()))?;
+    let stats = sim.stats();
+    println!(
+        "{}: t = {start}..{stop}, step {step}: {} events, {} event-function evaluations, {:.3} ms",
+        scene.name,
+        stats.events,
+        stats.probes,
+        elapsed.as_secs_f64() * 1e3
+    );
+    println!("results: {}", results.display());
+    println!("events:  {}", event_file.display());
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("package") => package(&args[1..]),
+        Some("run") => run(&args[1..]),
+        Some("describe") => match args.get(1) {
+            Some(f) => load(Path::new(f)).map(|s| print!("{}", model_description(&s))),
+            None => Err(USAGE.into()),
+        },
+        Some("model-descriptions") => builtin_scenes().and_then(|files| {
+            let dir = root().join("modelDescription");
+            std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+            for f in files {
+                let scene = load(&f)?;
+                let path = dir.join(format!("{}.xml", scene.name));
+                std::fs::write(&path, model_description(&scene)).map_err(|e| format!("{}: {e}", path.display()))?;
+                println!("{}", path.display());
+            }
+            Ok(())
+        }),
+        Some("check") if args.len() > 1 => args[1..].iter().try_for_each(|f| {
+            load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name, s.guid()))
+        }),
+        _ => Err(USAGE.into()),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("beamstop: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -49,12 +49,14 @@ pub struct Jet {
 }
 
 impl Jet {
-    /// Widens the noise by what an error of a few ulps in the time `t`
-    /// itself does to each derivative: event times are only known to that
+    /// Widens the noise of the derivatives by what an error of a few ulps in
+    /// the time `t` does to them: event times are only known to that
     /// resolution, so a derivative that small is no evidence of a direction.
+    /// (The value itself keeps its rounding noise: the event search
+    /// converges on it.)
     pub fn with_time_uncertainty(mut self, t: f64) -> Self {
         let dt = 4.0 * f64::EPSILON * t.abs().max(1.0);
-        for m in 0..3 {
+        for m in 1..3 {
             self.noise[m] += self.d[m + 1].abs() * dt;
         }
         self

@@ -1,0 +1,494 @@
+//! One FMU instance: the FMI semantics of every call, in safe Rust.
+//!
+//! The C entry points (`api.rs`) only translate pointers and call these
+//! methods. Every method checks the state machine first; bad arguments get
+//! fmi2Error with a message naming the variable, the value and what is
+//! allowed, and leave the instance as it was.
+
+use std::path::Path;
+
+use crate::interface::Value;
+use crate::model::Model;
+use crate::scene::Scene;
+use crate::sim::{EventKind, SimError, Simulation};
+
+use super::logging::Logger;
+use super::state_machine::{Function, ModelState};
+use super::types::Status;
+use super::variables::{Binding, VarType, Variable, VariableTable};
+
+/// Everything an FMU state snapshot holds (fmi2GetFMUstate): a deep copy.
+#[derive(Clone, Debug)]
+pub struct Snapshot {
+    pub machine: ModelState,
+    /// Current values of every parameter, in table order.
+    pub parameters: Vec<f64>,
+    pub inputs: Vec<f64>,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+    pub sim: Option<Simulation>,
+    pub last_successful_time: f64,
+    pub terminated: bool,
+}
+
+pub struct Instance {
+    pub logger: Logger,
+    guid: String,
+    /// The scene as packaged: the start values.
+    packaged: Scene,
+    /// The scene with the current parameter values.
+    scene: Scene,
+    table: VariableTable,
+    inputs: Vec<f64>,
+    machine: ModelState,
+    start_time: f64,
+    stop_time: Option<f64>,
+    sim: Option<Simulation>,
+    /// In initialization mode, a simulation built from the current values
+    /// to answer fmi2GetReal on outputs; cleared by any set.
+    provisional: Option<Simulation>,
+    last_successful_time: f64,
+    terminated: bool,
+}
+
+/// A failed call: the status to return (the message is already logged).
+pub type CallResult<T = ()> = Result<T, Status>;
+
+impl Instance {
+    /// fmi2Instantiate after the pointer checks: reads the scene from the
+    /// resources and checks the GUID.
+    pub fn new(logger: Logger, guid: &str, resources: &Path) -> Result<Instance, (Logger, String)> {
+        let file = resources.join("scene.json");
+        let text = match std::fs::read_to_string(&file) {
+            Ok(t) => t,
+            Err(e) => return Err((logger, format!("fmi2Instantiate: cannot read the scene {}: {e}", file.display()))),
+        };
+        let scene = match Scene::from_json(&text) {
+            Ok(s) => s,
+            Err(e) => return Err((logger, format!("fmi2Instantiate: invalid scene {}: {e}", file.display()))),
+        };
+        let expected = scene.guid();
+        if guid != expected {
+            return Err((
+                logger,
+                format!(
+                    "fmi2Instantiate: GUID {guid} does not match this FMU ({expected}); the modelDescription.xml and the binary come from different builds"
+                ),
+            ));
+        }
+        let table = VariableTable::new(&scene);
+        let inputs = vec![0.0; table.inputs.len()];
+        Ok(Instance {
+            logger,
+            guid: expected,
+            packaged: scene.clone(),
+            scene,
+            table,
+            inputs,
+            machine: ModelState::Instantiated,
+            start_time: 0.0,
+            stop_time: None,
+            sim: None,
+            provisional: None,
+            last_successful_time: 0.0,
+            terminated: false,
+        })
+    }
+
+    pub fn guid(&self) -> &str {
+        &self.guid
+    }
+
+    pub fn table(&self) -> &VariableTable {
+        &self.table
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    pub fn machine(&self) -> ModelState {
+        self.machine
+    }
+
+    /// Checks the state machine table; logs an illegal call.
+    pub fn enter(&self, f: Function) -> CallResult {
+        f.check(self.machine).map_err(|m| self.fail(&m))
+    }
+
+    /// After a panic inside a call: the instance can no longer be trusted.
+    pub fn poison(&mut self, message: &str) {
+        self.machine = ModelState::Error;
+        self.logger.status(Status::Error, message);
+    }
+
+    /// Logs an error and returns the status to hand back.
+    pub fn fail(&self, message: &str) -> Status {
+        self.logger.status(Status::Error, message);
+        Status::Error
+    }
+
+    fn trace(&self, message: &str) {
+        self.logger.category("logAll", message);
+    }
+
+    pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> CallResult {
+        self.enter(Function::SetDebugLogging)?;
+        self.logger.set_categories(on, categories).map_err(|m| self.fail(&m))?;
+        self.sync_event_recording();
+        Ok(())
+    }
+
+    /// Events are only recorded when someone will read them.
+    fn sync_event_recording(&mut self) {
+        let on = self.logger.wants("logEvents");
+        if let Some(sim) = self.sim.as_mut() {
+            sim.set_event_recording(on);
+        }
+    }
+
+    pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> CallResult {
+        self.enter(Function::SetupExperiment)?;
+        if !start.is_finite() {
+            return Err(self.fail(&format!("fmi2SetupExperiment: startTime = {start}: must be finite")));
+        }
+        if let Some(stop) = stop {
+            if !(stop >= start) || !stop.is_finite() {
+                return Err(self.fail(&format!("fmi2SetupExperiment: stopTime = {stop}: must be finite and >= startTime = {start}")));
+            }
+        }
+        self.start_time = start;
+        self.stop_time = stop;
+        self.last_successful_time = start;
+        Ok(())
+    }
+
+    pub fn enter_initialization_mode(&mut self) -> CallResult {
+        self.enter(Function::EnterInitializationMode)?;
+        self.machine = ModelState::InitializationMode;
+        self.trace("fmi2EnterInitializationMode");
+        Ok(())
+    }
+
+    fn build_simulation(&self) -> Result<Simulation, String> {
+        let model = Model::build(&self.scene).map_err(|e| e.0)?;
+        let mut sim = Simulation::new(model, self.start_time).map_err(|e| e.to_string())?;
+        sim.set_inputs(&self.inputs);
+        sim.set_event_recording(self.logger.wants("logEvents"));
+        Ok(sim)
+    }
+
+    pub fn exit_initialization_mode(&mut self) -> CallResult {
+        self.enter(Function::ExitInitializationMode)?;
+        let mut sim = match self.provisional.take() {
+            Some(sim) => sim,
+            None => self.build_simulation().map_err(|m| self.fail(&format!("fmi2ExitInitializationMode: {m}")))?,
+        };
+        // Events settled at the start time (an initial impact, sticking).
+        let events = sim.drain_events();
+        self.sim = Some(sim);
+        self.log_events(&events);
+        self.machine = ModelState::StepComplete;
+        self.last_successful_time = self.start_time;
+        self.trace("fmi2ExitInitializationMode: simulation ready");
+        Ok(())
+    }
+
+    pub fn terminate(&mut self) -> CallResult {
+        self.enter(Function::Terminate)?;
+        self.machine = ModelState::Terminated;
+        self.trace("fmi2Terminate");
+        Ok(())
+    }
+
+    pub fn reset(&mut self) -> CallResult {
+        self.enter(Function::Reset)?;
+        self.scene = self.packaged.clone();
+        self.inputs.iter_mut().for_each(|u| *u = 0.0);
+        self.machine = ModelState::Instantiated;
+        self.start_time = 0.0;
+        self.stop_time = None;
+        self.sim = None;
+        self.provisional = None;
+        self.last_successful_time = 0.0;
+        self.terminated = false;
+        self.trace("fmi2Reset: back to Instantiated with the start values");
+        Ok(())
+    }
+
+    fn variable(&self, f: Function, vr: u32, ty: VarType) -> CallResult<&Variable> {
+        let Some(v) = self.table.get(vr) else {
+            return Err(self.fail(&format!(
+                "{}: value reference {vr} does not exist (this FMU has 0..={})",
+                f.name(),
+                self.table.variables.len().saturating_sub(1)
+            )));
+        };
+        if v.ty != ty {
+            return Err(self.fail(&format!(
+                "{}: value reference {vr} ('{}') is {} {}, not {}",
+                f.name(),
+                v.name,
+                if v.ty == VarType::Integer { "an" } else { "a" },
+                v.ty.name(),
+                ty.name()
+            )));
+        }
+        Ok(v)
+    }
+
+    /// The simulation that answers output reads in this state.
+    fn reading_simulation(&mut self, f: Function) -> CallResult<&Simulation> {
+        if self.machine == ModelState::InitializationMode {
+            if self.provisional.is_none() {
+                match self.build_simulation() {
+                    Ok(sim) => self.provisional = Some(sim),
+                    Err(m) => return Err(self.fail(&format!("{}: outputs cannot be computed: {m}", f.name()))),
+                }
+            }
+            return Ok(self.provisional.as_ref().expect("just built"));
+        }
+        match self.sim.as_ref() {
+            Some(sim) => Ok(sim),
+            None => Err(self.fail(&format!("{}: no simulation (initialisation failed)", f.name()))),
+        }
+    }
+
+    fn read(&mut self, f: Function, vr: u32, ty: VarType) -> CallResult<Value> {
+        let binding = self.variable(f, vr, ty)?.binding;
+        Ok(match binding {
+            Binding::Parameter(i) => Value::Real(self.table.parameters[i].key.get(&self.scene)),
+            Binding::Input(i) => Value::Real(self.inputs[i]),
+            Binding::Output(i) => {
+                let key = self.table.outputs[i].key;
+                key.evaluate(self.reading_simulation(f)?)
+            }
+        })
+    }
+
+    pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> CallResult {
+        self.enter(Function::GetReal)?;
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            if let Value::Real(x) = self.read(Function::GetReal, *vr, VarType::Real)? {
+                *out = x;
+            }
+        }
+        Ok(())
+    }
+
+    pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> CallResult {
+        self.enter(Function::GetInteger)?;
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            if let Value::Integer(x) = self.read(Function::GetInteger, *vr, VarType::Integer)? {
+                *out = x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+            }
+        }
+        Ok(())
+    }
+
+    pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> CallResult {
+        self.enter(Function::GetBoolean)?;
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            if let Value::Boolean(x) = self.read(Function::GetBoolean, *vr, VarType::Boolean)? {
+                *out = x;
+            }
+        }
+        Ok(())
+    }
+
+    /// fmi2GetString / SetInteger / SetBoolean / SetString: this FMU has no
+    /// variable they can reach; any value reference is an error.
+    pub fn no_such_variables(&self, f: Function, vrs: &[u32], what: &str) -> CallResult {
+        self.enter(f)?;
+        match vrs.first() {
+            None => Ok(()),
+            Some(vr) => {
+                let detail = match self.table.get(*vr) {
+                    Some(v) => format!("value reference {vr} is '{}', a {} {:?}", v.name, v.ty.name(), v.causality),
+                    None => format!("value reference {vr} does not exist"),
+                };
+                Err(self.fail(&format!("{}: this FMU has no {what}; {detail}", f.name())))
+            }
+        }
+    }
+
+    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> CallResult {
+        let f = Function::SetReal;
+        self.enter(f)?;
+        // Check every value first: a rejected call changes nothing.
+        let mut scene = self.scene.clone();
+        let mut inputs = self.inputs.clone();
+        let mut parameters_changed = false;
+        for (vr, value) in vrs.iter().zip(values) {
+            let v = self.variable(f, *vr, VarType::Real)?;
+            match v.binding {
+                Binding::Parameter(i) => {
+                    let p = &self.table.parameters[i];
+                    let after_init = !matches!(self.machine, ModelState::Instantiated | ModelState::InitializationMode);
+                    if after_init && !p.tunable {
+                        return Err(self.fail(&format!(
+                            "fmi2SetReal: '{}' is a fixed parameter: set it before fmi2ExitInitializationMode (or after fmi2Reset)",
+                            p.name
+                        )));
+                    }
+                    if let Err(m) = p.range.check(&format!("'{}'", p.name), *value) {
+                        return Err(self.fail(&format!("fmi2SetReal: {m}")));
+                    }
+                    p.key.set(&mut scene, *value);
+                    parameters_changed = true;
+                }
+                Binding::Input(i) => {
+                    if !value.is_finite() {
+                        return Err(self.fail(&format!("fmi2SetReal: input '{}' = {value}: must be finite", v.name)));
+                    }
+                    inputs[i] = *value;
+                }
+                Binding::Output(_) => {
+                    return Err(self.fail(&format!("fmi2SetReal: '{}' (value reference {vr}) is an output and cannot be set", v.name)));
+                }
+            }
+        }
+        if parameters_changed {
+            if let Err(e) = scene.validate() {
+                return Err(self.fail(&format!("fmi2SetReal: {e}")));
+            }
+        }
+        if let Some(sim) = self.sim.as_mut() {
+            if parameters_changed {
+                let model = match Model::build(&scene) {
+                    Ok(m) => m,
+                    Err(e) => return Err(self.fail(&format!("fmi2SetReal: {e}"))),
+                };
+                let saved = sim.clone();
+                if let Err(e) = sim.set_model(model) {
+                    *sim = saved;
+                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                }
+            }
+            sim.set_inputs(&inputs);
+        }
+        if parameters_changed || inputs != self.inputs {
+            self.provisional = None;
+        }
+        self.scene = scene;
+        self.inputs = inputs;
+        Ok(())
+    }
+
+    pub fn do_step(&mut self, t: f64, h: f64) -> CallResult {
+        self.enter(Function::DoStep)?;
+        let sim = self.sim.as_mut().expect("a simulation exists in StepComplete");
+        let now = sim.time();
+        let tol = 1e-9 * now.abs().max(1.0);
+        if !t.is_finite() || (t - now).abs() > tol {
+            let m = format!("fmi2DoStep: currentCommunicationPoint = {t} does not match the FMU's time {now}");
+            return Err(self.fail(&m));
+        }
+        if !(h > 0.0) || !h.is_finite() {
+            return Err(self.fail(&format!("fmi2DoStep: communicationStepSize = {h}: must be finite and > 0")));
+        }
+        let target = (t + h).max(now);
+        if let Some(stop) = self.stop_time {
+            if target > stop + 1e-9 * stop.abs().max(1.0) {
+                return Err(self.fail(&format!("fmi2DoStep: t + h = {target} is past stopTime = {stop} set in fmi2SetupExperiment")));
+            }
+        }
+        let result = sim.advance_to(target);
+        let events = sim.drain_events();
+        let reached = sim.time();
+        self.log_events(&events);
+        match result {
+            Ok(()) => {
+                self.last_successful_time = target;
+                Ok(())
+            }
+            Err(e @ SimError::TooManyEvents { .. }) => {
+                self.last_successful_time = reached;
+                self.machine = ModelState::StepFailed;
+                self.logger.status(Status::Discard, &format!("fmi2DoStep: {e}; the step was computed up to t = {reached}"));
+                Err(Status::Discard)
+            }
+            Err(e) => {
+                self.machine = ModelState::Error;
+                Err(self.fail(&format!("fmi2DoStep: {e}")))
+            }
+        }
+    }
+
+    fn log_events(&self, events: &[crate::sim::Event]) {
+        if events.is_empty() || !self.logger.wants("logEvents") {
+            return;
+        }
+        let Some(sim) = self.sim.as_ref().or(self.provisional.as_ref()) else { return };
+        let stops = &sim.model().stops;
+        for e in events {
+            let name = |i: usize| stops[i].name.as_str();
+            let text = match &e.kind {
+                EventKind::Impact { stop, speed, restitution, energy_lost, chatter } => format!(
+                    "t = {:.17}: impact at stop '{}', approach speed {speed:.6e}, R = {restitution}, energy lost {energy_lost:.6e}{}",
+                    e.time,
+                    name(*stop),
+                    if *chatter { " (chatter detected: final R = 0 impact)" } else { "" }
+                ),
+                EventKind::Stick { stop, reaction } => {
+                    format!("t = {:.17}: sticking starts at stop '{}', reaction {reaction:.6e}", e.time, name(*stop))
+                }
+                EventKind::Release { stop } => {
+                    format!("t = {:.17}: release from stop '{}' (reaction changed sign)", e.time, name(*stop))
+                }
+                EventKind::Graze { stop } => format!("t = {:.17}: grazing contact at stop '{}' (zero velocity, no impact)", e.time, name(*stop)),
+            };
+            self.logger.category("logEvents", &text);
+        }
+    }
+
+    pub fn status_time(&mut self, f: Function) -> CallResult<f64> {
+        self.enter(f)?;
+        Ok(self.last_successful_time)
+    }
+
+    pub fn status_terminated(&mut self, f: Function) -> CallResult<bool> {
+        self.enter(f)?;
+        Ok(self.terminated)
+    }
+
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            machine: self.machine,
+            parameters: self.table.parameters.iter().map(|p| p.key.get(&self.scene)).collect(),
+            inputs: self.inputs.clone(),
+            start_time: self.start_time,
+            stop_time: self.stop_time,
+            sim: self.sim.clone(),
+            last_successful_time: self.last_successful_time,
+            terminated: self.terminated,
+        }
+    }
+
+    pub fn restore(&mut self, s: &Snapshot) {
+        let mut scene = self.packaged.clone();
+        for (p, v) in self.table.parameters.iter().zip(&s.parameters) {
+            p.key.set(&mut scene, *v);
+        }
+        self.scene = scene;
+        self.machine = s.machine;
+        self.inputs = s.inputs.clone();
+        self.start_time = s.start_time;
+        self.stop_time = s.stop_time;
+        self.sim = s.sim.clone();
+        self.provisional = None;
+        self.last_successful_time = s.last_successful_time;
+        self.terminated = s.terminated;
+        self.sync_event_recording();
+    }
+
+    /// The packaged scene with the given parameter values (for restoring
+    /// serialized states).
+    pub fn scene_with(&self, parameters: &[f64]) -> Scene {
+        let mut scene = self.packaged.clone();
+        for (p, v) in self.table.parameters.iter().zip(parameters) {
+            p.key.set(&mut scene, *v);
+        }
+        scene
+    }
+}

@@ -1,0 +1,148 @@
+//! The scene's parameters, inputs and outputs as FMI scalar variables:
+//! value references, causality, variability, start values. One table
+//! serves the instance (get/set) and the modelDescription.xml.
+
+use crate::interface::{self, Input, Output, OutputType, Parameter};
+use crate::scene::Scene;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VarType {
+    Real,
+    Integer,
+    Boolean,
+}
+
+impl VarType {
+    pub fn name(self) -> &'static str {
+        match self {
+            VarType::Real => "Real",
+            VarType::Integer => "Integer",
+            VarType::Boolean => "Boolean",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    Input,
+    Output,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variability {
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+/// What a variable reads or writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binding {
+    Parameter(usize),
+    Input(usize),
+    Output(usize),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Variable {
+    pub vr: u32,
+    pub name: String,
+    pub description: String,
+    pub unit: &'static str,
+    pub ty: VarType,
+    pub causality: Causality,
+    pub variability: Variability,
+    /// Start value (parameters and inputs); outputs are calculated.
+    pub start: Option<f64>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub binding: Binding,
+}
+
+/// The interface of a scene, with its variables numbered by value reference.
+#[derive(Clone, Debug)]
+pub struct VariableTable {
+    pub parameters: Vec<Parameter>,
+    pub inputs: Vec<Input>,
+    pub outputs: Vec<Output>,
+    /// Indexed by value reference.
+    pub variables: Vec<Variable>,
+}
+
+impl VariableTable {
+    pub fn new(scene: &Scene) -> Self {
+        let parameters = interface::parameters(scene);
+        let inputs = interface::inputs(scene);
+        let outputs = interface::outputs(scene);
+        let mut variables = Vec::new();
+        let finite = |x: f64| if x.is_finite() { Some(x) } else { None };
+        for (i, p) in parameters.iter().enumerate() {
+            variables.push(Variable {
+                vr: variables.len() as u32,
+                name: p.name.clone(),
+                description: format!("{} (allowed {})", p.description, p.range),
+                unit: p.unit,
+                ty: VarType::Real,
+                causality: Causality::Parameter,
+                variability: if p.tunable { Variability::Tunable } else { Variability::Fixed },
+                start: Some(p.key.get(scene)),
+                min: finite(p.range.min),
+                max: finite(p.range.max),
+                binding: Binding::Parameter(i),
+            });
+        }
+        for (i, input) in inputs.iter().enumerate() {
+            variables.push(Variable {
+                vr: variables.len() as u32,
+                name: input.name.clone(),
+                description: input.description.clone(),
+                unit: input.unit,
+                ty: VarType::Real,
+                causality: Causality::Input,
+                variability: Variability::Continuous,
+                start: Some(0.0),
+                min: None,
+                max: None,
+                binding: Binding::Input(i),
+            });
+        }
+        for (i, o) in outputs.iter().enumerate() {
+            let (ty, variability) = match o.kind {
+                OutputType::Real => (
+                    VarType::Real,
+                    if matches!(o.key, interface::OutputKey::StopLastImpact(_)) {
+                        Variability::Discrete
+                    } else {
+                        Variability::Continuous
+                    },
+                ),
+                OutputType::Integer => (VarType::Integer, Variability::Discrete),
+                OutputType::Boolean => (VarType::Boolean, Variability::Discrete),
+            };
+            variables.push(Variable {
+                vr: variables.len() as u32,
+                name: o.name.clone(),
+                description: o.description.clone(),
+                unit: o.unit,
+                ty,
+                causality: Causality::Output,
+                variability,
+                start: None,
+                min: None,
+                max: None,
+                binding: Binding::Output(i),
+            });
+        }
+        VariableTable { parameters, inputs, outputs, variables }
+    }
+
+    pub fn get(&self, vr: u32) -> Option<&Variable> {
+        self.variables.get(vr as usize)
+    }
+
+    pub fn by_name(&self, name: &str) -> Option<&Variable> {
+        self.variables.iter().find(|v| v.name == name)
+    }
+}
