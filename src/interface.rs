@@ -176,7 +176,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
             scene_path: format!("loads[{i}].omega"),
             description: format!("Circular frequency of the load '{name}'"),
             unit,
-            range: Range::POSITIVE,
+            range: Range::NON_NEGATIVE,
             tunable: true,
         });
     }

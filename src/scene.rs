@@ -231,7 +231,7 @@ impl Range {
         if self.contains(value) {
             Ok(())
         } else {
-            Err(format!("{what} = {value}: allowed range is {self} (finite)"))
+            Err(format!("{what} = {value:?}: allowed range is {self} (finite)"))
         }
     }
 }

@@ -293,13 +293,13 @@ impl Simulation {
     }
 
     /// Sets the held actuator forces; a change starts a new segment now.
-    pub fn set_inputs(&mut self, inputs: &[f64]) {
+    pub fn set_inputs(&mut self, inputs: &[f64]) -> Result<(), SimError> {
         if inputs == self.inputs.as_slice() {
-            return;
+            return Ok(());
         }
         self.inputs.copy_from_slice(inputs);
         self.dynamics.set_forcing(self.model.forcing_with_inputs(&self.inputs));
-        self.reanchor_now().expect("the contact phase was already set up");
+        self.reanchor_now()
     }
 
     /// Replaces the model by one with other tunable values (loads,
@@ -321,6 +321,9 @@ impl Simulation {
         self.reanchor_now()
     }
 
+    /// Starts a new segment at the current time (the loads changed) and
+    /// settles what the change causes there at once (a stuck beam whose
+    /// reaction now pulls is released before anyone reads the outputs).
     fn reanchor_now(&mut self) -> Result<(), SimError> {
         if self.state.anchor_time != self.state.time {
             self.state.departing = 0;
@@ -328,7 +331,8 @@ impl Simulation {
         self.state.anchor = self.state.current.clone();
         self.state.anchor_time = self.state.time;
         self.state.scan = self.state.time;
-        self.rebuild_segment()
+        self.rebuild_segment()?;
+        self.advance_to(self.state.time)
     }
 
     fn coupled_system(&mut self, mask: u64) -> Result<Arc<CoupledSystem>, SimError> {
@@ -420,9 +424,7 @@ impl Simulation {
                         bounds_ready = true;
                     }
                     let b = bound_buf.functional(&self.gap_functionals[i], self.tau_max);
-                    let c = certified_step(&jet, &b, departing);
-                    if std::env::var("BS_DEBUG").is_ok() && departing { eprintln!("t={t:.17} jet={jet:?} b={b:?} -> {c:?}"); }
-                    match c {
+                    match certified_step(&jet, &b, departing) {
                         Certified::Clear(s) => {
                             if s < step {
                                 step = s;
@@ -512,6 +514,11 @@ impl Simulation {
             count += 1;
             self.stats.events += 1;
             if count > self.model.max_events_per_step {
+                // Stop consistently at the last point reached.
+                self.state.time = l;
+                let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
+                self.state_at(l, &mut current);
+                self.state.current = current;
                 return Err(SimError::TooManyEvents { time: l, count });
             }
             self.handle_events(l, st.clone(), at_zero)?;
@@ -538,9 +545,12 @@ impl Simulation {
         let mut departing = self.state.departing;
         for (i, jet) in at_zero {
             if self.state.stuck & bit(i) != 0 {
-                match tendency_from(&jet, 1) {
-                    Tendency::Closing => releases.push(i),
-                    Tendency::Opening => departing |= bit(i),
+                // The reaction already pulls (after a change of load), or is
+                // about to: release.
+                if jet.d[0] < -jet.noise[0] || tendency_from(&jet, 1) == Tendency::Closing {
+                    releases.push(i);
+                } else {
+                    departing |= bit(i);
                 }
             } else if jet.d[1] < -jet.noise[1] {
                 impacts.push((i, -jet.d[1]));

@@ -173,7 +173,7 @@ impl Instance {
     fn build_simulation(&self) -> Result<Simulation, String> {
         let model = Model::build(&self.scene).map_err(|e| e.0)?;
         let mut sim = Simulation::new(model, self.start_time).map_err(|e| e.to_string())?;
-        sim.set_inputs(&self.inputs);
+        sim.set_inputs(&self.inputs).map_err(|e| e.to_string())?;
         sim.set_event_recording(self.logger.wants("logEvents"));
         Ok(sim)
     }
@@ -327,8 +327,10 @@ impl Instance {
                     let after_init = !matches!(self.machine, ModelState::Instantiated | ModelState::InitializationMode);
                     if after_init && !p.tunable {
                         return Err(self.fail(&format!(
-                            "fmi2SetReal: '{}' is a fixed parameter: set it before fmi2ExitInitializationMode (or after fmi2Reset)",
-                            p.name
+                            "fmi2SetReal: '{}' = {value:?}: '{}' is a fixed parameter, settable only before fmi2ExitInitializationMode (or after fmi2Reset); it stays {}",
+                            p.name,
+                            p.name,
+                            p.key.get(&self.scene)
                         )));
                     }
                     if let Err(m) = p.range.check(&format!("'{}'", p.name), *value) {
@@ -339,7 +341,7 @@ impl Instance {
                 }
                 Binding::Input(i) => {
                     if !value.is_finite() {
-                        return Err(self.fail(&format!("fmi2SetReal: input '{}' = {value}: must be finite", v.name)));
+                        return Err(self.fail(&format!("fmi2SetReal: input '{}' = {value:?}: must be finite", v.name)));
                     }
                     inputs[i] = *value;
                 }
@@ -354,18 +356,19 @@ impl Instance {
             }
         }
         if let Some(sim) = self.sim.as_mut() {
-            if parameters_changed {
-                let model = match Model::build(&scene) {
-                    Ok(m) => m,
-                    Err(e) => return Err(self.fail(&format!("fmi2SetReal: {e}"))),
-                };
-                let saved = sim.clone();
-                if let Err(e) = sim.set_model(model) {
-                    *sim = saved;
-                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
-                }
+            let saved = sim.clone();
+            let model_applied = if parameters_changed {
+                Model::build(&scene).map_err(|e| e.to_string()).and_then(|m| sim.set_model(m).map_err(|e| e.to_string()))
+            } else {
+                Ok(())
+            };
+            let applied = model_applied.and_then(|()| sim.set_inputs(&inputs).map_err(|e| e.to_string()));
+            if let Err(e) = applied {
+                *sim = saved;
+                return Err(self.fail(&format!("fmi2SetReal: {e}")));
             }
-            sim.set_inputs(&inputs);
+            let events = sim.drain_events();
+            self.log_events(&events);
         }
         if parameters_changed || inputs != self.inputs {
             self.provisional = None;

@@ -12,7 +12,7 @@ pub const CATEGORIES: [(&str, &str); 6] = [
     ("logStatusDiscard", "Messages with status fmi2Discard"),
     ("logStatusError", "Messages with status fmi2Error: what was wrong and what is allowed"),
     ("logStatusFatal", "Messages with status fmi2Fatal"),
-    ("logAll", "Everything, including each call that changes the state"),
+    ("logAll", "Each call that changes the instance state"),
 ];
 
 pub struct Logger {
@@ -76,10 +76,10 @@ impl Logger {
         }
     }
 
-    /// Whether a message of this category would reach the importer.
+    /// Whether a message of this category would reach the importer (each
+    /// category is switched on and off by itself).
     pub fn wants(&self, category: &str) -> bool {
-        let all = self.enabled[CATEGORIES.len() - 1];
-        index(category).is_some_and(|i| self.enabled[i]) || all
+        index(category).is_some_and(|i| self.enabled[i])
     }
 
     /// Logs a status message: errors always reach the importer (the

@@ -88,8 +88,9 @@ impl VariableTable {
                 causality: Causality::Parameter,
                 variability: if p.tunable { Variability::Tunable } else { Variability::Fixed },
                 start: Some(p.key.get(scene)),
-                min: finite(p.range.min),
-                max: finite(p.range.max),
+                // FMI bounds are inclusive: an open end becomes the next double inside.
+                min: finite(p.range.min).map(|m| if p.range.min_open { m.next_up() } else { m }),
+                max: finite(p.range.max).map(|m| if p.range.max_open { m.next_down() } else { m }),
                 binding: Binding::Parameter(i),
             });
         }
