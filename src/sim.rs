@@ -149,6 +149,11 @@ pub struct Stats {
     pub events: u64,
 }
 
+/// The event search bounds derivatives over at most this many of the
+/// model's shortest periods at a time (the bounds hardly grow with it; see
+/// `FreeSegment::fill_bounds`).
+const TAU_MAX_PERIODS: f64 = 4.0;
+
 fn bit(i: usize) -> u64 {
     1u64 << i
 }
@@ -157,12 +162,9 @@ impl Simulation {
     /// Starts a run at `start_time` from the model's initial state. A state
     /// at rest on a stop with the load pushing into it starts stuck.
     pub fn new(model: Model, start_time: f64) -> Result<Self, SimError> {
-        let n = model.n_modes();
-        let inputs = vec![0.0; model.actuators.len()];
-        let dynamics = FreeDynamics::new(model.oscillators.clone(), model.forcing_with_inputs(&inputs));
-        let gap_functionals: Vec<Functional> = model.stops.iter().map(|s| s.gap_functional()).collect();
         let initial = model.initial.clone();
-        for (s, g) in model.stops.iter().zip(&gap_functionals) {
+        for s in &model.stops {
+            let g = s.gap_functional();
             let value = g.offset + g.q.dot(&initial.q);
             let scale = g.offset.abs() + g.q.iter().zip(initial.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
             if value < -(crate::solve::functional::NOISE * scale).max(model.event_tolerance) {
@@ -182,34 +184,21 @@ impl Simulation {
             scan: start_time,
             departing: 0,
             stops: model.stops.iter().map(|_| StopState { impacts: 0, last_impact: start_time, previous_impact: None }).collect(),
-            current: initial.clone(),
+            current: initial,
         };
-        let tau_max = 4.0 * model.shortest_period();
-        let segment = Segment::Free(FreeSegment::new(&dynamics, start_time, &initial));
-        let mut sim = Simulation {
-            model,
-            dynamics,
-            inputs,
-            state,
-            segment,
-            gap_functionals,
-            coupled_cache: HashMap::new(),
-            tau_max,
-            record_events: true,
-            events: Vec::new(),
-            stats: Stats::default(),
-        };
-        debug_assert_eq!(sim.state.current.q.len(), n);
+        let inputs = vec![0.0; model.actuators.len()];
+        let mut sim = Self::restore(model, inputs, state)?;
         // Settle contacts present at the start (impact, sticking).
         sim.advance_to(start_time)?;
         Ok(sim)
     }
 
-    /// Restores a run from a saved state (see [`Self::state`]).
+    /// Restores a run from a saved state (see [`Self::state`]): everything
+    /// else is derived from the model, the inputs and the state.
     pub fn restore(model: Model, inputs: Vec<f64>, state: SimState) -> Result<Self, SimError> {
         let dynamics = FreeDynamics::new(model.oscillators.clone(), model.forcing_with_inputs(&inputs));
         let gap_functionals = model.stops.iter().map(|s| s.gap_functional()).collect();
-        let tau_max = 4.0 * model.shortest_period();
+        let tau_max = TAU_MAX_PERIODS * model.shortest_period();
         let segment = Segment::Free(FreeSegment::new(&dynamics, state.anchor_time, &state.anchor));
         let mut sim = Simulation {
             model,
@@ -314,7 +303,7 @@ impl Simulation {
         if !same_structure {
             self.coupled_cache.clear();
         }
-        self.tau_max = 4.0 * model.shortest_period();
+        self.tau_max = TAU_MAX_PERIODS * model.shortest_period();
         self.gap_functionals = model.stops.iter().map(|s| s.gap_functional()).collect();
         self.model = model;
         self.dynamics = FreeDynamics::new(self.model.oscillators.clone(), self.model.forcing_with_inputs(&self.inputs));
