@@ -5,73 +5,155 @@
 //! Only what the scene uses appears. The FMI layer turns this list into
 //! scalar variables; nothing here knows about FMI.
 
-use crate::scene::{Load, Range, Scene, StopLaw, Structure};
+use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, StopLaw, Units};
+
+/// Physical units, as SI exponents (kg, m, s, rad).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Unit {
+    One,
+    Metre,
+    Second,
+    MetrePerSecond,
+    MetrePerSecond2,
+    Newton,
+    NewtonPerMetre,
+    NewtonMetre,
+    Joule,
+    RadianPerSecond,
+    /// Viscous damping per unit length, N s / m^2.
+    NewtonSecondPerMetre2,
+}
+
+impl Unit {
+    pub fn name(self) -> &'static str {
+        match self {
+            Unit::One => "1",
+            Unit::Metre => "m",
+            Unit::Second => "s",
+            Unit::MetrePerSecond => "m/s",
+            Unit::MetrePerSecond2 => "m/s2",
+            Unit::Newton => "N",
+            Unit::NewtonPerMetre => "N/m",
+            Unit::NewtonMetre => "N.m",
+            Unit::Joule => "J",
+            Unit::RadianPerSecond => "rad/s",
+            Unit::NewtonSecondPerMetre2 => "N.s/m2",
+        }
+    }
+
+    /// Exponents of kg, m, s, rad.
+    pub fn si_exponents(self) -> [i32; 4] {
+        match self {
+            Unit::One => [0, 0, 0, 0],
+            Unit::Metre => [0, 1, 0, 0],
+            Unit::Second => [0, 0, 1, 0],
+            Unit::MetrePerSecond => [0, 1, -1, 0],
+            Unit::MetrePerSecond2 => [0, 1, -2, 0],
+            Unit::Newton => [1, 1, -2, 0],
+            Unit::NewtonPerMetre => [1, 0, -2, 0],
+            Unit::NewtonMetre | Unit::Joule => [1, 2, -2, 0],
+            Unit::RadianPerSecond => [0, 0, -1, 1],
+            Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
+        }
+    }
+}
+
+/// A quantity's unit in the scene's unit system (everything is "1" scaled).
+fn unit(scene: &Scene, u: Unit) -> Unit {
+    match scene.units {
+        Units::Scaled => Unit::One,
+        Units::Si => u,
+    }
+}
 
 /// Where a parameter's value lives in the scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ParamKey {
     LoadAmplitude(usize),
     LoadOmega(usize),
+    LoadPosition(usize),
     Zeta,
+    ZetaMode(usize),
+    Viscous,
     Restitution(usize),
     ChatterEps(usize),
     StopGap(usize),
     StopPosition(usize),
+    SensorPosition(usize),
     ActuatorPosition(usize),
     InitialQ(usize),
     InitialQd(usize),
 }
 
+fn load_fields(load: &mut Load) -> (&mut f64, &mut f64, Option<&mut Option<f64>>) {
+    match load {
+        Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
+            (amplitude, omega, None)
+        }
+        Load::PointHarmonic { amplitude, omega, x, .. } => (amplitude, omega, Some(x)),
+    }
+}
+
 impl ParamKey {
     pub fn get(&self, scene: &Scene) -> f64 {
+        let law = |i: usize| match scene.stops[i].law {
+            StopLaw::Restitution { restitution, eps } => (restitution, eps),
+        };
+        let load = |i: usize| match &scene.loads[i] {
+            Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
+                (*amplitude, *omega, None)
+            }
+            Load::PointHarmonic { amplitude, omega, x, .. } => (*amplitude, *omega, *x),
+        };
+        let damping = scene.damping.as_ref();
         match *self {
-            ParamKey::LoadAmplitude(i) => match &scene.loads[i] {
-                Load::DistributedHarmonic { amplitude, .. } => *amplitude,
-            },
-            ParamKey::LoadOmega(i) => match &scene.loads[i] {
-                Load::DistributedHarmonic { omega, .. } => *omega,
-            },
-            ParamKey::Zeta => scene.damping.zeta,
-            ParamKey::Restitution(i) => match &scene.stops[i].law {
-                StopLaw::Restitution { restitution, .. } => *restitution,
-            },
-            ParamKey::ChatterEps(i) => match &scene.stops[i].law {
-                StopLaw::Restitution { eps, .. } => *eps,
-            },
+            ParamKey::LoadAmplitude(i) => load(i).0,
+            ParamKey::LoadOmega(i) => load(i).1,
+            ParamKey::LoadPosition(i) => load(i).2.unwrap_or(0.0),
+            ParamKey::Zeta => damping.and_then(|d| d.zeta).unwrap_or(0.0),
+            ParamKey::ZetaMode(j) => damping.and_then(|d| d.zeta_modes.as_ref()).and_then(|z| z.get(j).copied()).unwrap_or(0.0),
+            ParamKey::Viscous => damping.and_then(|d| d.viscous).unwrap_or(0.0),
+            ParamKey::Restitution(i) => law(i).0,
+            ParamKey::ChatterEps(i) => law(i).1,
             ParamKey::StopGap(i) => scene.stops[i].gap,
-            ParamKey::StopPosition(i) => scene.stops[i].x,
-            ParamKey::ActuatorPosition(i) => scene.actuators[i].x,
+            ParamKey::StopPosition(i) => scene.stops[i].x.unwrap_or(0.0),
+            ParamKey::SensorPosition(i) => scene.sensors[i].x.unwrap_or(0.0),
+            ParamKey::ActuatorPosition(i) => scene.actuators[i].x.unwrap_or(0.0),
             ParamKey::InitialQ(j) => scene.initial.q.get(j).copied().unwrap_or(0.0),
             ParamKey::InitialQd(j) => scene.initial.qd.get(j).copied().unwrap_or(0.0),
         }
     }
 
     pub fn set(&self, scene: &mut Scene, value: f64) {
+        *self.slot(scene) = value;
+    }
+
+    /// The value's place in the scene (creating defaults where it is implied).
+    fn slot<'a>(&self, scene: &'a mut Scene) -> &'a mut f64 {
         let n = scene.n_modes();
+        let law = |s: &'a mut crate::scene::Stop| match &mut s.law {
+            StopLaw::Restitution { restitution, eps } => (restitution, eps),
+        };
         match *self {
-            ParamKey::LoadAmplitude(i) => match &mut scene.loads[i] {
-                Load::DistributedHarmonic { amplitude, .. } => *amplitude = value,
-            },
-            ParamKey::LoadOmega(i) => match &mut scene.loads[i] {
-                Load::DistributedHarmonic { omega, .. } => *omega = value,
-            },
-            ParamKey::Zeta => scene.damping.zeta = value,
-            ParamKey::Restitution(i) => match &mut scene.stops[i].law {
-                StopLaw::Restitution { restitution, .. } => *restitution = value,
-            },
-            ParamKey::ChatterEps(i) => match &mut scene.stops[i].law {
-                StopLaw::Restitution { eps, .. } => *eps = value,
-            },
-            ParamKey::StopGap(i) => scene.stops[i].gap = value,
-            ParamKey::StopPosition(i) => scene.stops[i].x = value,
-            ParamKey::ActuatorPosition(i) => scene.actuators[i].x = value,
+            ParamKey::LoadAmplitude(i) => load_fields(&mut scene.loads[i]).0,
+            ParamKey::LoadOmega(i) => load_fields(&mut scene.loads[i]).1,
+            ParamKey::LoadPosition(i) => load_fields(&mut scene.loads[i]).2.expect("point load").get_or_insert(0.0),
+            ParamKey::Zeta => scene.damping.get_or_insert_with(Default::default).zeta.get_or_insert(0.0),
+            ParamKey::ZetaMode(j) => &mut scene.damping.get_or_insert_with(Default::default).zeta_modes.get_or_insert_with(Vec::new)[j],
+            ParamKey::Viscous => scene.damping.get_or_insert_with(Default::default).viscous.get_or_insert(0.0),
+            ParamKey::Restitution(i) => law(&mut scene.stops[i]).0,
+            ParamKey::ChatterEps(i) => law(&mut scene.stops[i]).1,
+            ParamKey::StopGap(i) => &mut scene.stops[i].gap,
+            ParamKey::StopPosition(i) => scene.stops[i].x.get_or_insert(0.0),
+            ParamKey::SensorPosition(i) => scene.sensors[i].x.get_or_insert(0.0),
+            ParamKey::ActuatorPosition(i) => scene.actuators[i].x.get_or_insert(0.0),
             ParamKey::InitialQ(j) => {
-                scene.initial.q.resize(n, 0.0);
-                scene.initial.q[j] = value;
+                scene.initial.q.resize(n.max(scene.initial.q.len()), 0.0);
+                &mut scene.initial.q[j]
             }
             ParamKey::InitialQd(j) => {
-                scene.initial.qd.resize(n, 0.0);
-                scene.initial.qd[j] = value;
+                scene.initial.qd.resize(n.max(scene.initial.qd.len()), 0.0);
+                &mut scene.initial.qd[j]
             }
         }
     }
@@ -84,7 +166,7 @@ pub struct Parameter {
     /// Where the value sits in the scene file, for error messages.
     pub scene_path: String,
     pub description: String,
-    pub unit: &'static str,
+    pub unit: Unit,
     pub range: Range,
     /// May change between communication steps; otherwise fixed after
     /// initialisation.
@@ -93,7 +175,7 @@ pub struct Parameter {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum InputKey {
-    ActuatorForce(usize),
+    Actuator(usize),
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -101,7 +183,7 @@ pub struct Input {
     pub key: InputKey,
     pub name: String,
     pub description: String,
-    pub unit: &'static str,
+    pub unit: Unit,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -112,9 +194,15 @@ pub enum OutputKey {
     StopLastImpact(usize),
     StopSticking(usize),
     StopReaction(usize),
+    SensorDisplacement(usize),
+    SensorVelocity(usize),
+    SensorMoment(usize),
     Q(usize),
     Qd(usize),
     Energy,
+    ForcingEnergy(usize),
+    DampingEnergy(usize),
+    ImpactEnergy,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -129,144 +217,162 @@ pub struct Output {
     pub key: OutputKey,
     pub name: String,
     pub description: String,
-    pub unit: &'static str,
+    pub unit: Unit,
     pub kind: OutputType,
+    /// Changes only at events.
+    pub discrete: bool,
 }
 
 /// A variable's name: the element's rename if it has one, else `prefix.key`.
-fn named(names: &std::collections::BTreeMap<String, String>, prefix: &str, key: &str) -> String {
+fn named(names: &Names, prefix: &str, key: &str) -> String {
     names.get(key).cloned().unwrap_or_else(|| if prefix.is_empty() { key.to_string() } else { format!("{prefix}.{key}") })
 }
 
 /// A per-mode name: the pattern's `{j}` replaced by the 1-based mode number.
-fn mode_name(names: &std::collections::BTreeMap<String, String>, key: &str, default: &str, j: usize) -> String {
+fn mode_name(names: &Names, key: &str, default: &str, j: usize) -> String {
     names.get(key).map(String::as_str).unwrap_or(default).replace("{j}", &(j + 1).to_string())
 }
 
-fn span(scene: &Scene) -> Range {
-    match scene.structure {
-        Structure::Beam { .. } => Range::OPEN_UNIT,
-    }
-}
-
-fn closed_span(scene: &Scene) -> Range {
-    match scene.structure {
-        Structure::Beam { .. } => Range::UNIT,
+/// The allowed positions along a beam: for stops, not at a pinned or
+/// clamped end (every mode has a node there, a stop could not act); for
+/// the rest, anywhere.
+fn span(scene: &Scene, stop: bool) -> Range {
+    let length = scene.section().ok().flatten().map_or(1.0, |s| s.length);
+    let free_right = matches!(scene.structure, crate::scene::StructureSpec::Beam { support: crate::scene::SupportKind::ClampedFree, .. });
+    if stop {
+        Range { min: 0.0, max: length, min_open: true, max_open: !free_right }
+    } else {
+        Range::closed(0.0, length)
     }
 }
 
 /// Every parameter of the scene, in a stable order.
 pub fn parameters(scene: &Scene) -> Vec<Parameter> {
     let mut out = Vec::new();
-    let unit = "1";
+    let mut push = |key, name, scene_path: String, description: String, u, range, tunable| {
+        out.push(Parameter { key, name, scene_path, description, unit: unit(scene, u), range, tunable });
+    };
+    let beam = scene.is_beam();
     for (i, load) in scene.loads.iter().enumerate() {
-        let Load::DistributedHarmonic { name, names, .. } = load;
-        out.push(Parameter {
-            key: ParamKey::LoadAmplitude(i),
-            name: named(names, name, "amplitude"),
-            scene_path: format!("loads[{i}].amplitude"),
-            description: format!("Amplitude of the distributed harmonic load '{name}' (per unit length)"),
-            unit,
-            range: Range::ANY,
-            tunable: true,
-        });
-        out.push(Parameter {
-            key: ParamKey::LoadOmega(i),
-            name: named(names, name, "omega"),
-            scene_path: format!("loads[{i}].omega"),
-            description: format!("Circular frequency of the load '{name}'"),
-            unit,
-            range: Range::NON_NEGATIVE,
-            tunable: true,
-        });
+        let (name, names, kind, amplitude_unit) = match load {
+            Load::DistributedHarmonic { name, names, .. } => (name, names, "distributed load (per unit length)", Unit::NewtonPerMetre),
+            Load::PointHarmonic { name, names, .. } => (name, names, "point force", Unit::Newton),
+            Load::BaseExcitation { name, names, .. } => (name, names, "base acceleration", Unit::MetrePerSecond2),
+        };
+        push(
+            ParamKey::LoadAmplitude(i),
+            named(names, name, "amplitude"),
+            format!("loads[{i}].amplitude"),
+            format!("Amplitude of the harmonic {kind} '{name}'"),
+            amplitude_unit,
+            Range::ANY,
+            true,
+        );
+        push(
+            ParamKey::LoadOmega(i),
+            named(names, name, "omega"),
+            format!("loads[{i}].omega"),
+            format!("Circular frequency of the load '{name}'"),
+            Unit::RadianPerSecond,
+            Range::NON_NEGATIVE,
+            true,
+        );
+        if beam && matches!(load, Load::PointHarmonic { .. }) {
+            push(
+                ParamKey::LoadPosition(i),
+                named(names, name, "x"),
+                format!("loads[{i}].x"),
+                format!("Position of the point force '{name}' along the beam"),
+                Unit::Metre,
+                span(scene, false),
+                false,
+            );
+        }
     }
-    out.push(Parameter {
-        key: ParamKey::Zeta,
-        name: named(&scene.damping.names, "", "zeta"),
-        scene_path: "damping.zeta".into(),
-        description: "Modal damping ratio of every mode".into(),
-        unit,
-        range: Range::NON_NEGATIVE,
-        tunable: false,
-    });
-    for (i, stop) in scene.stops.iter().enumerate() {
-        let n = &stop.names;
-        let s = &stop.name;
-        match stop.law {
-            StopLaw::Restitution { .. } => {
-                out.push(Parameter {
-                    key: ParamKey::Restitution(i),
-                    name: named(n, s, "R"),
-                    scene_path: format!("stops[{i}].law.R"),
-                    description: format!("Coefficient of restitution at stop '{s}'"),
-                    unit,
-                    range: Range::UNIT,
-                    tunable: true,
-                });
-                out.push(Parameter {
-                    key: ParamKey::ChatterEps(i),
-                    name: named(n, s, "eps"),
-                    scene_path: format!("stops[{i}].law.eps"),
-                    description: format!(
-                        "Chatter threshold at stop '{s}': an impact sooner than eps after the previous one ends the chatter with R = 0 and starts sticking"
-                    ),
-                    unit,
-                    range: Range::NON_NEGATIVE,
-                    tunable: true,
-                });
+    if let Some(d) = &scene.damping {
+        if d.zeta.is_some() {
+            push(ParamKey::Zeta, named(&d.names, "", "zeta"), "damping.zeta".into(), "Modal damping ratio of every mode".into(), Unit::One, Range::NON_NEGATIVE, false);
+        }
+        if let Some(z) = &d.zeta_modes {
+            for j in 0..z.len() {
+                push(
+                    ParamKey::ZetaMode(j),
+                    mode_name(&d.names, "zeta_modes", "zeta[{j}]", j),
+                    format!("damping.zeta_modes[{j}]"),
+                    format!("Damping ratio of mode {}", j + 1),
+                    Unit::One,
+                    Range::NON_NEGATIVE,
+                    false,
+                );
             }
         }
-        out.push(Parameter {
-            key: ParamKey::StopGap(i),
-            name: named(n, s, "gap"),
-            scene_path: format!("stops[{i}].gap"),
-            description: format!("Clearance between the undeformed beam and stop '{s}' (negative: preload)"),
-            unit,
-            range: Range::ANY,
-            tunable: false,
-        });
-        out.push(Parameter {
-            key: ParamKey::StopPosition(i),
-            name: named(n, s, "x"),
-            scene_path: format!("stops[{i}].x"),
-            description: format!("Position of stop '{s}' along the beam"),
-            unit,
-            range: span(scene),
-            tunable: false,
-        });
+        if d.viscous.is_some() {
+            push(
+                ParamKey::Viscous,
+                named(&d.names, "", "c_viscous"),
+                "damping.viscous".into(),
+                "Viscous damping per unit length (zeta_j = c / (2 rho A omega_j))".into(),
+                Unit::NewtonSecondPerMetre2,
+                Range::NON_NEGATIVE,
+                false,
+            );
+        }
     }
-    for (i, a) in scene.actuators.iter().enumerate() {
-        out.push(Parameter {
-            key: ParamKey::ActuatorPosition(i),
-            name: named(&a.names, &a.name, "x"),
-            scene_path: format!("actuators[{i}].x"),
-            description: format!("Position of the point force '{}' along the beam", a.name),
-            unit,
-            range: closed_span(scene),
-            tunable: false,
-        });
+    for (i, stop) in scene.stops.iter().enumerate() {
+        let (n, s) = (&stop.names, &stop.name);
+        match stop.law {
+            StopLaw::Restitution { .. } => {
+                push(ParamKey::Restitution(i), named(n, s, "R"), format!("stops[{i}].law.R"), format!("Coefficient of restitution at stop '{s}'"), Unit::One, Range::UNIT, true);
+                push(
+                    ParamKey::ChatterEps(i),
+                    named(n, s, "eps"),
+                    format!("stops[{i}].law.eps"),
+                    format!(
+                        "Chatter threshold at stop '{s}': an impact sooner than eps after the previous one ends the chatter with R = 0 and starts sticking"
+                    ),
+                    Unit::Second,
+                    Range::NON_NEGATIVE,
+                    true,
+                );
+            }
+        }
+        push(
+            ParamKey::StopGap(i),
+            named(n, s, "gap"),
+            format!("stops[{i}].gap"),
+            format!("Clearance between the undeformed structure and stop '{s}' (negative: preload)"),
+            Unit::Metre,
+            Range::ANY,
+            false,
+        );
+        if beam {
+            push(ParamKey::StopPosition(i), named(n, s, "x"), format!("stops[{i}].x"), format!("Position of stop '{s}' along the beam"), Unit::Metre, span(scene, true), false);
+        }
+    }
+    if beam {
+        for (i, sensor) in scene.sensors.iter().enumerate() {
+            let s = &sensor.name;
+            push(ParamKey::SensorPosition(i), named(&sensor.names, s, "x"), format!("sensors[{i}].x"), format!("Position of sensor '{s}' along the beam"), Unit::Metre, span(scene, false), false);
+        }
+        for (i, a) in scene.actuators.iter().enumerate() {
+            if a.kind == ActuatorKind::Force {
+                push(
+                    ParamKey::ActuatorPosition(i),
+                    named(&a.names, &a.name, "x"),
+                    format!("actuators[{i}].x"),
+                    format!("Position of the point force '{}' along the beam", a.name),
+                    Unit::Metre,
+                    span(scene, false),
+                    false,
+                );
+            }
+        }
     }
     for j in 0..scene.n_modes() {
-        out.push(Parameter {
-            key: ParamKey::InitialQ(j),
-            name: mode_name(&scene.names, "q0", "q0[{j}]", j),
-            scene_path: format!("initial.q[{j}]"),
-            description: format!("Initial modal displacement of mode {}", j + 1),
-            unit,
-            range: Range::ANY,
-            tunable: false,
-        });
+        push(ParamKey::InitialQ(j), mode_name(&scene.names, "q0", "q0[{j}]", j), format!("initial.q[{j}]"), format!("Initial modal displacement of mode {}", j + 1), Unit::Metre, Range::ANY, false);
     }
     for j in 0..scene.n_modes() {
-        out.push(Parameter {
-            key: ParamKey::InitialQd(j),
-            name: mode_name(&scene.names, "qd0", "qd0[{j}]", j),
-            scene_path: format!("initial.qd[{j}]"),
-            description: format!("Initial modal velocity of mode {}", j + 1),
-            unit,
-            range: Range::ANY,
-            tunable: false,
-        });
+        push(ParamKey::InitialQd(j), mode_name(&scene.names, "qd0", "qd0[{j}]", j), format!("initial.qd[{j}]"), format!("Initial modal velocity of mode {}", j + 1), Unit::MetrePerSecond, Range::ANY, false);
     }
     out
 }
@@ -276,55 +382,105 @@ pub fn inputs(scene: &Scene) -> Vec<Input> {
         .actuators
         .iter()
         .enumerate()
-        .map(|(i, a)| Input {
-            key: InputKey::ActuatorForce(i),
-            name: named(&a.names, "", &a.name),
-            description: format!("Point force '{}' (positive along +w), held constant over each communication step", a.name),
-            unit: "1",
+        .map(|(i, a)| {
+            let (description, u) = match a.kind {
+                ActuatorKind::Force => (format!("Point force '{}' (positive along +w), held constant over each communication step", a.name), Unit::Newton),
+                ActuatorKind::BaseAcceleration => (format!("Acceleration '{}' of the supports (and stops), held constant over each communication step", a.name), Unit::MetrePerSecond2),
+            };
+            Input { key: InputKey::Actuator(i), name: named(&a.names, "", &a.name), description, unit: unit(scene, u) }
         })
         .collect()
 }
 
 pub fn outputs(scene: &Scene) -> Vec<Output> {
     let mut out = Vec::new();
-    let real = |key, name, description: String| Output { key, name, description, unit: "1", kind: OutputType::Real };
+    let mut push = |key, name, description: String, u, kind, discrete| {
+        out.push(Output { key, name, description, unit: unit(scene, u), kind, discrete });
+    };
+    let real = OutputType::Real;
     for (i, stop) in scene.stops.iter().enumerate() {
         let (n, s) = (&stop.names, &stop.name);
-        out.push(real(OutputKey::StopDisplacement(i), named(n, s, "w"), format!("Beam displacement at stop '{s}'")));
-        out.push(real(OutputKey::StopVelocity(i), named(n, s, "v"), format!("Beam velocity at stop '{s}'")));
-        out.push(Output {
-            key: OutputKey::StopImpacts(i),
-            name: named(n, s, "impacts"),
-            description: format!("Number of impacts at stop '{s}' since the start"),
-            unit: "",
-            kind: OutputType::Integer,
-        });
-        out.push(real(
+        push(OutputKey::StopDisplacement(i), named(n, s, "w"), format!("Displacement at stop '{s}'"), Unit::Metre, real, false);
+        push(OutputKey::StopVelocity(i), named(n, s, "v"), format!("Velocity at stop '{s}'"), Unit::MetrePerSecond, real, false);
+        push(OutputKey::StopImpacts(i), named(n, s, "impacts"), format!("Number of impacts at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
+        push(
             OutputKey::StopLastImpact(i),
             named(n, s, "t_last_impact"),
-            format!("Exact time of the latest impact at stop '{s}' (start time before the first)"),
-        ));
-        out.push(Output {
-            key: OutputKey::StopSticking(i),
-            name: named(n, s, "sticking"),
-            description: format!("Whether the beam is stuck to stop '{s}'"),
-            unit: "",
-            kind: OutputType::Boolean,
-        });
-        out.push(real(
+            format!("Exact time of the latest impact at stop '{s}' (the start time before the first)"),
+            Unit::Second,
+            real,
+            true,
+        );
+        push(OutputKey::StopSticking(i), named(n, s, "sticking"), format!("Whether the structure is stuck to stop '{s}'"), Unit::One, OutputType::Boolean, true);
+        push(
             OutputKey::StopReaction(i),
             named(n, s, "lambda"),
-            format!("Reaction of stop '{s}' on the beam while sticking (seed eq. 33; pushes along -w for a stop on the +w side), else 0"),
-        ));
+            format!("Reaction of stop '{s}' while sticking (seed 000 eq. 33; <= 0 for a stop on the +w side), else 0"),
+            Unit::Newton,
+            real,
+            false,
+        );
     }
-    for j in 0..scene.n_modes() {
-        out.push(real(OutputKey::Q(j), mode_name(&scene.names, "q", "q[{j}]", j), format!("Modal displacement of mode {}", j + 1)));
+    for (i, sensor) in scene.sensors.iter().enumerate() {
+        let (n, s) = (&sensor.names, &sensor.name);
+        for q in &sensor.quantities {
+            match q {
+                Quantity::Displacement => push(OutputKey::SensorDisplacement(i), named(n, s, "w"), format!("Displacement at sensor '{s}'"), Unit::Metre, real, false),
+                Quantity::Velocity => push(OutputKey::SensorVelocity(i), named(n, s, "v"), format!("Velocity at sensor '{s}'"), Unit::MetrePerSecond, real, false),
+                Quantity::BendingMoment => push(
+                    OutputKey::SensorMoment(i),
+                    named(n, s, "M"),
+                    format!("Bending moment EI w'' at sensor '{s}' (modal sum: converges slowly in the number of modes)"),
+                    Unit::NewtonMetre,
+                    real,
+                    false,
+                ),
+            }
+        }
     }
-    for j in 0..scene.n_modes() {
-        out.push(real(OutputKey::Qd(j), mode_name(&scene.names, "qd", "qd[{j}]", j), format!("Modal velocity of mode {}", j + 1)));
+    if scene.outputs.modal {
+        for j in 0..scene.n_modes() {
+            push(OutputKey::Q(j), mode_name(&scene.names, "q", "q[{j}]", j), format!("Modal displacement of mode {}", j + 1), Unit::Metre, real, false);
+        }
+        for j in 0..scene.n_modes() {
+            push(OutputKey::Qd(j), mode_name(&scene.names, "qd", "qd[{j}]", j), format!("Modal velocity of mode {}", j + 1), Unit::MetrePerSecond, real, false);
+        }
     }
-    out.push(real(OutputKey::Energy, named(&scene.names, "", "energy"), "Kinetic plus strain energy of the beam".into()));
+    if scene.outputs.energy {
+        push(OutputKey::Energy, named(&scene.names, "", "energy"), "Kinetic plus strain energy".into(), Unit::Joule, real, false);
+    }
+    if scene.outputs.energy_balance {
+        for j in 0..scene.n_modes() {
+            push(
+                OutputKey::ForcingEnergy(j),
+                mode_name(&scene.names, "FE", "FE[{j}]", j),
+                format!("Work of the loads on mode {} since the start (seed 003 eq. 8, FE_j)", j + 1),
+                Unit::Joule,
+                real,
+                false,
+            );
+        }
+        for j in 0..scene.n_modes() {
+            push(
+                OutputKey::DampingEnergy(j),
+                mode_name(&scene.names, "DE", "DE[{j}]", j),
+                format!("Energy dissipated by the damping of mode {} since the start (seed 003 eq. 8, DE_j)", j + 1),
+                Unit::Joule,
+                real,
+                false,
+            );
+        }
+        push(OutputKey::ImpactEnergy, named(&scene.names, "", "impact_energy"), "Energy lost at impacts since the start".into(), Unit::Joule, real, true);
+    }
     out
+}
+
+/// Every variable name of a scene (parameters, inputs, outputs).
+pub fn variable_names(scene: &Scene) -> Vec<String> {
+    let mut v: Vec<String> = parameters(scene).into_iter().map(|p| p.name).collect();
+    v.extend(inputs(scene).into_iter().map(|i| i.name));
+    v.extend(outputs(scene).into_iter().map(|o| o.name));
+    v
 }
 
 /// The value of an output.
@@ -339,17 +495,25 @@ impl OutputKey {
     /// Reads the output from a simulation at its current time.
     pub fn evaluate(&self, sim: &crate::sim::Simulation) -> Value {
         let c = sim.current();
-        let stops = &sim.model().stops;
+        let model = sim.model();
+        let scale = model.coordinate_scale;
         match *self {
-            OutputKey::StopDisplacement(i) => Value::Real(stops[i].w.dot(&c.q)),
-            OutputKey::StopVelocity(i) => Value::Real(stops[i].w.dot(&c.qd)),
+            OutputKey::StopDisplacement(i) => Value::Real(model.stops[i].w.dot(&c.q)),
+            OutputKey::StopVelocity(i) => Value::Real(model.stops[i].w.dot(&c.qd)),
             OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
             OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
             OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
             OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
-            OutputKey::Q(j) => Value::Real(c.q[j]),
-            OutputKey::Qd(j) => Value::Real(c.qd[j]),
+            OutputKey::SensorDisplacement(i) => Value::Real(model.sensors[i].w.dot(&c.q)),
+            OutputKey::SensorVelocity(i) => Value::Real(model.sensors[i].w.dot(&c.qd)),
+            OutputKey::SensorMoment(i) => Value::Real(model.sensors[i].moment.as_ref().map_or(0.0, |m| m.dot(&c.q))),
+            OutputKey::Q(j) => Value::Real(c.q[j] / scale),
+            OutputKey::Qd(j) => Value::Real(c.qd[j] / scale),
             OutputKey::Energy => Value::Real(sim.energy()),
+            OutputKey::ForcingEnergy(j) => Value::Real(sim.energy_balance().map_or(0.0, |b| b.forcing[j])),
+            OutputKey::DampingEnergy(j) => Value::Real(sim.energy_balance().map_or(0.0, |b| b.damping[j])),
+            OutputKey::ImpactEnergy => Value::Real(sim.energy_balance().map_or(0.0, |b| b.impacts)),
         }
     }
 }
+

@@ -1,11 +1,15 @@
-//! The model built from a scene: modal oscillators, modal loads, stops with
-//! their shape vectors, actuators. Plain numbers, ready for the solver.
+//! The model built from a scene: modal oscillators, modal loads, stops,
+//! sensors and inputs as shape vectors. Plain numbers, ready for the solver.
+//!
+//! Internally modal coordinates are mass-normalised (`q'' + 2 zeta omega q'
+//! + omega^2 q = f`, seed 000 eq. 13); `coordinate_scale` converts them to
+//! the displacement units the interface shows.
 
 use nalgebra::DVector;
 
-use crate::scene::{Load, Scene, SceneError, Side, StopLaw, Structure, SupportKind, Waveform};
+use crate::scene::{ActuatorKind, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
 use crate::solve::{Functional, ModalForcing, ModalState, Oscillator, C64};
-use crate::structure::{Beam, Support};
+use crate::structure::{Beam, Chain, Point, Structure, Support};
 
 /// A rigid stop acting on one point of the structure.
 #[derive(Clone, Debug, PartialEq)]
@@ -32,18 +36,39 @@ impl StopModel {
     }
 }
 
+/// A measuring point: displacement `w . q`, bending moment `m . q`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorModel {
+    pub name: String,
+    pub w: DVector<f64>,
+    /// `EI W_j''(x)` when the bending moment is measured.
+    pub moment: Option<DVector<f64>>,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
-    pub beam: Beam,
+    pub structure: Structure,
+    /// `q_mass_normalised = coordinate_scale * q_shown`.
+    pub coordinate_scale: f64,
     pub oscillators: Vec<Oscillator>,
     /// Modal loads without the inputs.
     pub loads: ModalForcing,
     pub stops: Vec<StopModel>,
-    /// Modal load of a unit force at each actuator.
-    pub actuators: Vec<DVector<f64>>,
+    pub sensors: Vec<SensorModel>,
+    /// Modal load of a unit value of each input.
+    pub inputs: Vec<DVector<f64>>,
     pub initial: ModalState,
     pub event_tolerance: f64,
     pub max_events_per_step: u64,
+    /// Accumulate seed 003's energy balance (FE_j, DE_j, impact losses).
+    pub energy_balance: bool,
+}
+
+fn point(scene: &Scene, x: Option<f64>, mass: Option<usize>) -> Point {
+    match scene.structure {
+        StructureSpec::Beam { .. } => Point::Along(x.expect("validated: beams use x")),
+        StructureSpec::Chain { .. } => Point::Mass(mass.expect("validated: chains use mass")),
+    }
 }
 
 impl Model {
@@ -53,39 +78,66 @@ impl Model {
 
     pub fn build(scene: &Scene) -> Result<Model, SceneError> {
         scene.validate()?;
-        let beam = match &scene.structure {
-            Structure::Beam { support, modes } => Beam::scaled(
-                match support {
+        let structure = match &scene.structure {
+            StructureSpec::Beam { support, modes, .. } => {
+                let section = scene.section()?.expect("a beam has a section");
+                let support = match support {
                     SupportKind::PinnedPinned => Support::PinnedPinned,
-                },
-                *modes,
-            ),
+                    SupportKind::ClampedFree => Support::ClampedFree,
+                    SupportKind::ClampedClamped => Support::ClampedClamped,
+                    SupportKind::ClampedPinned => Support::ClampedPinned,
+                };
+                Structure::Beam(Beam::new(support, *modes, section.length, section.mass_per_length, section.bending_stiffness))
+            }
+            StructureSpec::Chain { masses, m, k, c } => Structure::Chain(Chain::new(*masses, *m, *k, *c)),
         };
-        let n = beam.n_modes;
+        let n = structure.n_modes();
         let modes = 1..=n;
-        let oscillators: Vec<Oscillator> = modes.clone().map(|j| Oscillator::new(beam.omega(j), scene.damping.zeta)).collect();
+        let zeta = |j: usize| -> f64 {
+            match (&structure, &scene.damping) {
+                (Structure::Chain(c), _) => c.zeta(j),
+                (Structure::Beam(b), Some(d)) => {
+                    if let Some(z) = d.zeta {
+                        z
+                    } else if let Some(z) = &d.zeta_modes {
+                        z[j - 1]
+                    } else {
+                        d.viscous.unwrap_or(0.0) / (2.0 * b.mass_per_length * b.omega(j))
+                    }
+                }
+                (Structure::Beam(_), None) => 0.0,
+            }
+        };
+        let oscillators: Vec<Oscillator> = modes.clone().map(|j| Oscillator::new(structure.omega(j), zeta(j))).collect();
+        let vector = |f: &dyn Fn(usize) -> f64| DVector::from_iterator(n, modes.clone().map(f));
+        let shape_at = |p: Point| vector(&|j| structure.shape(j, p));
+        let inertial = vector(&|j| -structure.inertial_participation(j));
         let mut loads = ModalForcing::zero(n);
         for load in &scene.loads {
-            match load {
+            let (profile, amplitude, omega, waveform) = match load {
                 Load::DistributedHarmonic { amplitude, omega, waveform, .. } => {
-                    // F sin(W t) = Re(-i F e^{i W t}); F cos(W t) = Re(F e^{i W t}).
-                    let phase = match waveform {
-                        Waveform::Sin => C64::new(0.0, -1.0),
-                        Waveform::Cos => C64::new(1.0, 0.0),
-                    };
-                    let b = DVector::from_iterator(n, modes.clone().map(|j| phase * (amplitude * beam.shape_integral(j))));
-                    loads.add_harmonic(*omega, b);
+                    let Structure::Beam(b) = &structure else { unreachable!("validated") };
+                    (vector(&|j| b.shape_integral(j)), amplitude, omega, waveform)
                 }
-            }
+                Load::PointHarmonic { x, mass, amplitude, omega, waveform, .. } => {
+                    (shape_at(point(scene, *x, *mass)), amplitude, omega, waveform)
+                }
+                Load::BaseExcitation { amplitude, omega, waveform, .. } => (inertial.clone(), amplitude, omega, waveform),
+            };
+            // A sin(W t) = Re(-i A e^{i W t}); A cos(W t) = Re(A e^{i W t}).
+            let phase = match waveform {
+                Waveform::Sin => C64::new(0.0, -1.0),
+                Waveform::Cos => C64::new(1.0, 0.0),
+            };
+            loads.add_harmonic(*omega, profile.map(|p| phase * (amplitude * p)));
         }
-        let shape_at = |x: f64| DVector::from_iterator(n, modes.clone().map(|j| beam.shape(j, x)));
         let mut stops = Vec::new();
         for (i, s) in scene.stops.iter().enumerate() {
-            let w = shape_at(s.x);
-            if w.norm() < 1e-8 {
+            let w = shape_at(point(scene, s.x, s.mass));
+            if w.norm() < 1e-8 * w.len() as f64 {
                 return Err(SceneError(format!(
-                    "stops[{i}].x = {}: every retained mode has a node there, the stop cannot act",
-                    s.x
+                    "stops[{i}]: every retained mode has a node at {:?}, the stop cannot act there",
+                    s.at()
                 )));
             }
             let StopLaw::Restitution { restitution, eps } = s.law;
@@ -101,23 +153,48 @@ impl Model {
                 chatter_eps: eps,
             });
         }
-        let actuators = scene.actuators.iter().map(|a| shape_at(a.x)).collect();
+        let sensors = scene
+            .sensors
+            .iter()
+            .map(|s| {
+                let p = point(scene, s.x, s.mass);
+                let moment = match (&structure, p) {
+                    (Structure::Beam(b), Point::Along(x)) if s.quantities.contains(&Quantity::BendingMoment) => {
+                        Some(vector(&|j| b.bending_stiffness * b.curvature(j, x)))
+                    }
+                    _ => None,
+                };
+                SensorModel { name: s.name.clone(), w: shape_at(p), moment }
+            })
+            .collect();
+        let inputs = scene
+            .actuators
+            .iter()
+            .map(|a| match a.kind {
+                ActuatorKind::Force => shape_at(point(scene, a.x, a.mass)),
+                ActuatorKind::BaseAcceleration => inertial.clone(),
+            })
+            .collect();
+        let coordinate_scale = structure.coordinate_scale();
         let mut initial = ModalState::zeros(n);
         for (j, v) in scene.initial.q.iter().enumerate() {
-            initial.q[j] = *v;
+            initial.q[j] = coordinate_scale * v;
         }
         for (j, v) in scene.initial.qd.iter().enumerate() {
-            initial.qd[j] = *v;
+            initial.qd[j] = coordinate_scale * v;
         }
         Ok(Model {
-            beam,
+            structure,
+            coordinate_scale,
             oscillators,
             loads,
             stops,
-            actuators,
+            sensors,
+            inputs,
             initial,
             event_tolerance: scene.solver.event_tolerance,
             max_events_per_step: scene.solver.max_events_per_step,
+            energy_balance: scene.outputs.energy_balance,
         })
     }
 
@@ -130,10 +207,10 @@ impl Model {
             .sum()
     }
 
-    /// Modal loads with the actuator forces added (held constant).
+    /// Modal loads with the inputs added (held constant).
     pub fn forcing_with_inputs(&self, inputs: &[f64]) -> ModalForcing {
         let mut f = self.loads.clone();
-        for (a, u) in self.actuators.iter().zip(inputs) {
+        for (a, u) in self.inputs.iter().zip(inputs) {
             f.constant.axpy(*u, a, 1.0);
         }
         f

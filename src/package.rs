@@ -41,10 +41,11 @@ pub fn documentation(scene: &Scene) -> String {
         };
         let start = v.start.map(|s| format!("{s}")).unwrap_or_default();
         rows.push_str(&format!(
-            "<tr><td><code>{}</code></td><td>{}</td><td>{kind}</td><td>{}</td><td>{start}</td><td>{}</td></tr>\n",
+            "<tr><td><code>{}</code></td><td>{}</td><td>{kind}</td><td>{}</td><td>{}</td><td>{start}</td><td>{}</td></tr>\n",
             escape(&v.name),
             v.vr,
             v.ty.name(),
+            escape(v.unit.name()),
             escape(&v.description)
         ));
     }
@@ -70,7 +71,7 @@ result = simulate_fmu('{name}.fmu', stop_time={stop}, output_interval={step},
 print(result[-1])
 </pre>
 <h2>Variables</h2>
-<table><tr><th>name</th><th>value reference</th><th>kind</th><th>type</th><th>start</th><th>description</th></tr>
+<table><tr><th>name</th><th>value reference</th><th>kind</th><th>type</th><th>unit</th><th>start</th><th>description</th></tr>
 {rows}</table>
 <h2>Scene</h2>
 <pre>{scene_json}</pre>

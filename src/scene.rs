@@ -10,6 +10,8 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+pub type Names = BTreeMap<String, String>;
+
 /// A complete scene: one FMU.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -18,15 +20,23 @@ pub struct Scene {
     pub name: String,
     #[serde(default)]
     pub description: String,
-    pub structure: Structure,
+    /// `scaled` (the seeds' dimensionless units) or `SI`.
     #[serde(default)]
-    pub damping: Damping,
+    pub units: Units,
+    pub structure: StructureSpec,
+    /// Modal damping of a beam (a chain's damping is `structure.c`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<Damping>,
     #[serde(default)]
     pub loads: Vec<Load>,
     #[serde(default)]
     pub stops: Vec<Stop>,
     #[serde(default)]
+    pub sensors: Vec<Sensor>,
+    #[serde(default)]
     pub actuators: Vec<Actuator>,
+    #[serde(default)]
+    pub outputs: OutputChoice,
     #[serde(default)]
     pub initial: Initial,
     #[serde(default)]
@@ -36,35 +46,65 @@ pub struct Scene {
     pub experiment: Experiment,
     /// Renames of the model-wide variables (`energy`, `q[{j}]`, ...).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub names: BTreeMap<String, String>,
+    pub names: Names,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum Units {
+    /// The seeds' dimensionless units: every quantity has unit "1".
+    #[default]
+    #[serde(rename = "scaled")]
+    Scaled,
+    #[serde(rename = "SI")]
+    Si,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Structure {
-    /// An Euler-Bernoulli beam in the seeds' scaled units (`L = rho A = EI = 1`).
-    Beam { support: SupportKind, modes: usize },
+pub enum StructureSpec {
+    /// An Euler-Bernoulli beam. Scaled units: `L = rho A = EI = 1` (give no
+    /// section). SI: `length` [m], `E` [Pa], `I` [m^4], `rho` [kg/m^3], `A` [m^2].
+    Beam {
+        support: SupportKind,
+        modes: usize,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        length: Option<f64>,
+        #[serde(default, rename = "E", skip_serializing_if = "Option::is_none")]
+        youngs_modulus: Option<f64>,
+        #[serde(default, rename = "I", skip_serializing_if = "Option::is_none")]
+        second_moment: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        rho: Option<f64>,
+        #[serde(default, rename = "A", skip_serializing_if = "Option::is_none")]
+        area: Option<f64>,
+    },
+    /// The uniform N-mass chain of seed 003: masses `m`, springs `k` and
+    /// dampers `c` from the ground to mass 1 and between neighbours.
+    Chain { masses: usize, m: f64, k: f64, c: f64 },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SupportKind {
     PinnedPinned,
+    ClampedFree,
+    ClampedClamped,
+    ClampedPinned,
 }
 
-/// Modal damping ratio, equal for every mode (seed 000: `zeta_j = 0.05`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// Exactly one of: a damping ratio for every mode, one per mode, or a
+/// viscous coefficient per unit length `c` (`zeta_j = c / (2 rho A omega_j)`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct Damping {
-    pub zeta: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zeta: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zeta_modes: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub viscous: Option<f64>,
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub names: BTreeMap<String, String>,
-}
-
-impl Default for Damping {
-    fn default() -> Self {
-        Damping { zeta: 0.0, names: BTreeMap::new() }
-    }
+    pub names: Names,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -78,7 +118,7 @@ pub enum Waveform {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
-    /// `F sin(omega t)` per unit length over the whole span (seed 000 eq. 4).
+    /// `amplitude sin(omega t)` per unit length over the whole span (seed 000 eq. 4).
     DistributedHarmonic {
         name: String,
         amplitude: f64,
@@ -86,17 +126,69 @@ pub enum Load {
         #[serde(default)]
         waveform: Waveform,
         #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-        names: BTreeMap<String, String>,
+        names: Names,
     },
+    /// A harmonic point force at `x` (beam) or on `mass` (chain; seed 003's
+    /// forcing vector `A cos(Omega t)`).
+    PointHarmonic {
+        name: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        x: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        mass: Option<usize>,
+        amplitude: f64,
+        omega: f64,
+        #[serde(default)]
+        waveform: Waveform,
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        names: Names,
+    },
+    /// Harmonic acceleration `amplitude sin(omega t)` of the supports; the
+    /// motion is relative to them, stops move with them.
+    BaseExcitation {
+        name: String,
+        amplitude: f64,
+        omega: f64,
+        #[serde(default)]
+        waveform: Waveform,
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        names: Names,
+    },
+}
+
+/// A point of the structure as written: `x` along a beam or `mass` (from 1)
+/// of a chain (the `x` / `mass` fields of loads, stops, sensors, actuators).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Location {
+    pub x: Option<f64>,
+    pub mass: Option<usize>,
+}
+
+impl Stop {
+    pub fn at(&self) -> Location {
+        Location { x: self.x, mass: self.mass }
+    }
+}
+
+impl Sensor {
+    pub fn at(&self) -> Location {
+        Location { x: self.x, mass: self.mass }
+    }
+}
+
+impl Actuator {
+    pub fn at(&self) -> Location {
+        Location { x: self.x, mass: self.mass }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Side {
-    /// The stop limits `w(x) <= gap` (seed 000: `w(x_i) <= d`).
+    /// The stop limits `w <= gap` (seed 000: `w(x_i) <= d`).
     #[default]
     Positive,
-    /// The stop limits `w(x) >= -gap`.
+    /// The stop limits `w >= -gap`.
     Negative,
 }
 
@@ -104,15 +196,17 @@ pub enum Side {
 #[serde(deny_unknown_fields)]
 pub struct Stop {
     pub name: String,
-    /// Position along the beam.
-    pub x: f64,
-    /// Clearance from the undeformed beam (negative: preloaded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<usize>,
+    /// Clearance from the undeformed structure (negative: preloaded).
     pub gap: f64,
     #[serde(default)]
     pub side: Side,
     pub law: StopLaw,
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub names: BTreeMap<String, String>,
+    pub names: Names,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -127,17 +221,83 @@ pub enum StopLaw {
     },
 }
 
-/// A point force input, held over each communication step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    Displacement,
+    Velocity,
+    /// `EI w''(x)` (beams only).
+    BendingMoment,
+}
+
+/// A measuring point: its quantities become outputs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sensor {
+    pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<usize>,
+    pub quantities: Vec<Quantity>,
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub names: Names,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ActuatorKind {
+    /// A point force input at `x` / `mass`.
+    #[default]
+    Force,
+    /// An acceleration input of the supports.
+    BaseAcceleration,
+}
+
+/// An input, held constant over each communication step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Actuator {
     pub name: String,
-    pub x: f64,
+    #[serde(default)]
+    pub kind: ActuatorKind,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass: Option<usize>,
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub names: BTreeMap<String, String>,
+    pub names: Names,
 }
 
-/// Initial modal coordinates (missing entries are zero).
+/// Which model-wide outputs the FMU carries.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputChoice {
+    /// Kinetic plus strain energy.
+    #[serde(default = "yes")]
+    pub energy: bool,
+    /// Modal coordinates `q[j]`, `qd[j]`.
+    #[serde(default = "yes")]
+    pub modal: bool,
+    /// Seed 003's modal forcing energy `FE[j]`, damping energy `DE[j]`
+    /// (eq. 8) and the energy lost at impacts, accumulated from the start.
+    #[serde(default)]
+    pub energy_balance: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl Default for OutputChoice {
+    fn default() -> Self {
+        OutputChoice { energy: true, modal: true, energy_balance: false }
+    }
+}
+
+/// Initial modal coordinates (missing entries are zero), in displacement
+/// units: `w(x) = sum_j W~_j(x / L) q_j` with unit-mean-square shapes for
+/// beams, `x = sum_j xi_j q_j` with unit-norm eigenvectors for chains.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct Initial {
@@ -211,10 +371,13 @@ impl Range {
     pub const NON_NEGATIVE: Range = Range { min: 0.0, max: f64::INFINITY, min_open: false, max_open: false };
     pub const POSITIVE: Range = Range { min: 0.0, max: f64::INFINITY, min_open: true, max_open: false };
     pub const UNIT: Range = Range { min: 0.0, max: 1.0, min_open: false, max_open: false };
-    pub const OPEN_UNIT: Range = Range { min: 0.0, max: 1.0, min_open: true, max_open: true };
 
     pub fn open(min: f64, max: f64) -> Range {
         Range { min, max, min_open: true, max_open: true }
+    }
+
+    pub fn closed(min: f64, max: f64) -> Range {
+        Range { min, max, min_open: false, max_open: false }
     }
 
     pub fn contains(&self, v: f64) -> bool {
@@ -240,9 +403,43 @@ impl fmt::Display for Range {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let lo = if self.min_open || self.min.is_infinite() { '(' } else { '[' };
         let hi = if self.max_open || self.max.is_infinite() { ')' } else { ']' };
-        let num = |x: f64| if x.is_infinite() { if x > 0.0 { "inf".to_string() } else { "-inf".to_string() } } else { format!("{x}") };
+        let num = |x: f64| {
+            if x.is_infinite() {
+                if x > 0.0 { "inf".to_string() } else { "-inf".to_string() }
+            } else {
+                format!("{x}")
+            }
+        };
         write!(f, "{lo}{}, {}{hi}", num(self.min), num(self.max))
     }
+}
+
+fn err<T>(m: String) -> Result<T, SceneError> {
+    Err(SceneError(m))
+}
+
+fn check_name(what: &str, name: &str) -> Result<(), SceneError> {
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return err(format!("{what} = {name:?}: use letters, digits and '_' only"));
+    }
+    Ok(())
+}
+
+fn positive(what: &str, v: Option<f64>) -> Result<f64, SceneError> {
+    match v {
+        Some(v) => {
+            Range::POSITIVE.check(what, v).map_err(SceneError)?;
+            Ok(v)
+        }
+        None => err(format!("{what} is missing: SI beams need length, E, I, rho and A")),
+    }
+}
+
+/// The section of a beam in SI units: (length, rho A, E I).
+pub struct Section {
+    pub length: f64,
+    pub mass_per_length: f64,
+    pub bending_stiffness: f64,
 }
 
 impl Scene {
@@ -272,13 +469,58 @@ impl Scene {
 
     pub fn n_modes(&self) -> usize {
         match &self.structure {
-            Structure::Beam { modes, .. } => *modes,
+            StructureSpec::Beam { modes, .. } => *modes,
+            StructureSpec::Chain { masses, .. } => *masses,
+        }
+    }
+
+    pub fn is_beam(&self) -> bool {
+        matches!(self.structure, StructureSpec::Beam { .. })
+    }
+
+    /// The beam's length, mass per length and bending stiffness (1, 1, 1 in
+    /// scaled units); `None` for a chain.
+    pub fn section(&self) -> Result<Option<Section>, SceneError> {
+        let StructureSpec::Beam { length, youngs_modulus, second_moment, rho, area, .. } = &self.structure else {
+            return Ok(None);
+        };
+        match self.units {
+            Units::Scaled => {
+                for (name, v) in [("length", length), ("E", youngs_modulus), ("I", second_moment), ("rho", rho), ("A", area)] {
+                    if v.is_some() {
+                        return err(format!(
+                            "structure.{name} is given but units = \"scaled\" (L = rho A = EI = 1): remove it or set \"units\": \"SI\""
+                        ));
+                    }
+                }
+                Ok(Some(Section { length: 1.0, mass_per_length: 1.0, bending_stiffness: 1.0 }))
+            }
+            Units::Si => Ok(Some(Section {
+                length: positive("structure.length", *length)?,
+                mass_per_length: positive("structure.rho", *rho)? * positive("structure.A", *area)?,
+                bending_stiffness: positive("structure.E", *youngs_modulus)? * positive("structure.I", *second_moment)?,
+            })),
+        }
+    }
+
+    /// Checks a location belongs to the structure: `x` on a beam, `mass` on a chain.
+    pub fn check_location(&self, what: &str, at: &Location) -> Result<(), SceneError> {
+        match (&self.structure, at.x, at.mass) {
+            (StructureSpec::Beam { .. }, Some(_), None) => Ok(()),
+            (StructureSpec::Chain { masses, .. }, None, Some(i)) => {
+                if (1..=*masses).contains(&i) {
+                    Ok(())
+                } else {
+                    err(format!("{what}.mass = {i}: allowed masses are 1..={masses}"))
+                }
+            }
+            (StructureSpec::Beam { .. }, _, _) => err(format!("{what}: a point on a beam is given by \"x\" (and no \"mass\")")),
+            (StructureSpec::Chain { .. }, _, _) => err(format!("{what}: a point on a chain is given by \"mass\" (and no \"x\")")),
         }
     }
 
     /// Structural validation: everything that cannot change after packaging.
     pub fn validate(&self) -> Result<(), SceneError> {
-        let err = |m: String| Err(SceneError(m));
         if self.name.is_empty()
             || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
             || self.name.starts_with(|c: char| c.is_ascii_digit())
@@ -289,38 +531,104 @@ impl Scene {
             ));
         }
         let n = self.n_modes();
-        if !(1..=500).contains(&n) {
-            return err(format!("structure.modes = {n}: allowed range is [1, 500]"));
+        match &self.structure {
+            StructureSpec::Beam { .. } => {
+                if !(1..=500).contains(&n) {
+                    return err(format!("structure.modes = {n}: allowed range is [1, 500]"));
+                }
+                self.section()?;
+                let Some(d) = &self.damping else {
+                    return err("damping is missing: give one of zeta, zeta_modes, viscous".into());
+                };
+                let given = [d.zeta.is_some(), d.zeta_modes.is_some(), d.viscous.is_some()].iter().filter(|b| **b).count();
+                if given != 1 {
+                    return err(format!("damping: give exactly one of zeta, zeta_modes, viscous ({given} given)"));
+                }
+                if let Some(z) = &d.zeta_modes {
+                    if z.len() != n {
+                        return err(format!("damping.zeta_modes has {} entries: structure.modes = {n} needed", z.len()));
+                    }
+                }
+            }
+            StructureSpec::Chain { masses, m, k, c } => {
+                if !(1..=500).contains(masses) {
+                    return err(format!("structure.masses = {masses}: allowed range is [1, 500]"));
+                }
+                Range::POSITIVE.check("structure.m", *m).map_err(SceneError)?;
+                Range::POSITIVE.check("structure.k", *k).map_err(SceneError)?;
+                Range::NON_NEGATIVE.check("structure.c", *c).map_err(SceneError)?;
+                if self.damping.is_some() {
+                    return err("damping: a chain's damping is structure.c (seed 003: C = c E); remove \"damping\"".into());
+                }
+            }
         }
         if self.initial.q.len() > n {
-            return err(format!("initial.q has {} entries: at most structure.modes = {n}", self.initial.q.len()));
+            return err(format!("initial.q has {} entries: at most {n} (one per mode)", self.initial.q.len()));
         }
         if self.initial.qd.len() > n {
-            return err(format!("initial.qd has {} entries: at most structure.modes = {n}", self.initial.qd.len()));
+            return err(format!("initial.qd has {} entries: at most {n} (one per mode)", self.initial.qd.len()));
         }
         let mut seen = std::collections::BTreeSet::new();
+        let mut unique = |what: String, name: &str| -> Result<(), SceneError> {
+            check_name(&what, name)?;
+            if !seen.insert(name.to_string()) {
+                return err(format!("{what} = {name:?}: element names must be unique"));
+            }
+            Ok(())
+        };
         for (i, l) in self.loads.iter().enumerate() {
-            let Load::DistributedHarmonic { name, .. } = l;
-            check_name(&format!("loads[{i}].name"), name)?;
-            if !seen.insert(name.clone()) {
-                return err(format!("loads[{i}].name = {name:?}: names must be unique"));
+            let what = format!("loads[{i}]");
+            match l {
+                Load::DistributedHarmonic { name, .. } => {
+                    unique(format!("{what}.name"), name)?;
+                    if !self.is_beam() {
+                        return err(format!("{what}: a distributed load needs a beam; on a chain use point_harmonic"));
+                    }
+                }
+                Load::PointHarmonic { name, x, mass, .. } => {
+                    unique(format!("{what}.name"), name)?;
+                    self.check_location(&what, &Location { x: *x, mass: *mass })?;
+                }
+                Load::BaseExcitation { name, .. } => unique(format!("{what}.name"), name)?,
             }
         }
         for (i, s) in self.stops.iter().enumerate() {
-            check_name(&format!("stops[{i}].name"), &s.name)?;
-            if !seen.insert(s.name.clone()) {
-                return err(format!("stops[{i}].name = {:?}: names must be unique", s.name));
+            unique(format!("stops[{i}].name"), &s.name)?;
+            self.check_location(&format!("stops[{i}]"), &s.at())?;
+        }
+        if self.stops.len() > 64 {
+            return err(format!("stops: {} given, at most 64", self.stops.len()));
+        }
+        for (i, s) in self.sensors.iter().enumerate() {
+            unique(format!("sensors[{i}].name"), &s.name)?;
+            self.check_location(&format!("sensors[{i}]"), &s.at())?;
+            if s.quantities.is_empty() {
+                return err(format!("sensors[{i}].quantities is empty: list displacement, velocity or bending_moment"));
+            }
+            if s.quantities.contains(&Quantity::BendingMoment) && !self.is_beam() {
+                return err(format!("sensors[{i}].quantities: bending_moment needs a beam"));
             }
         }
         for (i, a) in self.actuators.iter().enumerate() {
-            check_name(&format!("actuators[{i}].name"), &a.name)?;
-            if !seen.insert(a.name.clone()) {
-                return err(format!("actuators[{i}].name = {:?}: names must be unique", a.name));
+            unique(format!("actuators[{i}].name"), &a.name)?;
+            match a.kind {
+                ActuatorKind::Force => self.check_location(&format!("actuators[{i}]"), &a.at())?,
+                ActuatorKind::BaseAcceleration => {
+                    if a.at() != Location::default() {
+                        return err(format!("actuators[{i}]: a base_acceleration input acts everywhere: remove x / mass"));
+                    }
+                }
             }
         }
         // Every value must lie in the range of the parameter that carries it.
         for p in crate::interface::parameters(self) {
             p.range.check(&format!("{} ({})", p.scene_path, p.name), p.key.get(self)).map_err(SceneError)?;
+        }
+        let mut names = std::collections::BTreeSet::new();
+        for v in crate::interface::variable_names(self) {
+            if !names.insert(v.clone()) {
+                return err(format!("two variables would be named {v:?}: rename one with \"names\""));
+            }
         }
         let e = &self.experiment;
         Range::ANY.check("experiment.start", e.start).map_err(SceneError)?;
@@ -328,18 +636,10 @@ impl Scene {
             return err(format!("experiment.stop = {}: must be finite and > experiment.start = {}", e.stop, e.start));
         }
         Range::POSITIVE.check("experiment.step", e.step).map_err(SceneError)?;
-        let solver_tol = self.solver.event_tolerance;
-        Range::NON_NEGATIVE.check("solver.event_tolerance", solver_tol).map_err(SceneError)?;
+        Range::NON_NEGATIVE.check("solver.event_tolerance", self.solver.event_tolerance).map_err(SceneError)?;
         if self.solver.max_events_per_step == 0 {
             return err("solver.max_events_per_step = 0: allowed range is [1, 2^64)".into());
         }
         Ok(())
     }
-}
-
-fn check_name(what: &str, name: &str) -> Result<(), SceneError> {
-    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-        return Err(SceneError(format!("{what} = {name:?}: use letters, digits and '_' only")));
-    }
-    Ok(())
 }

@@ -108,6 +108,21 @@ pub struct SimState {
     pub stops: Vec<StopState>,
     /// The state at `time`.
     pub current: ModalState,
+    /// Seed 003's energy accounting, when the model asks for it.
+    pub balance: Option<EnergyBalance>,
+}
+
+/// The work of the loads on each mode `FE_j = int qd_j f_j dt`, the energy
+/// its damping dissipates `DE_j = int 2 zeta_j omega_j qd_j^2 dt` (seed 003
+/// eq. 8) and the energy lost at impacts, all from the start, so that
+/// `E(t) - E(0) = sum_j (FE_j - DE_j) - impacts` (seed 003 eq. 7).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnergyBalance {
+    pub forcing: Vec<f64>,
+    pub damping: Vec<f64>,
+    pub impacts: f64,
+    /// The sums cover the run up to this time.
+    pub time: f64,
 }
 
 #[derive(Clone, Debug)]
@@ -185,8 +200,14 @@ impl Simulation {
             departing: 0,
             stops: model.stops.iter().map(|_| StopState { impacts: 0, last_impact: start_time, previous_impact: None }).collect(),
             current: initial,
+            balance: model.energy_balance.then(|| EnergyBalance {
+                forcing: vec![0.0; model.n_modes()],
+                damping: vec![0.0; model.n_modes()],
+                impacts: 0.0,
+                time: start_time,
+            }),
         };
-        let inputs = vec![0.0; model.actuators.len()];
+        let inputs = vec![0.0; model.inputs.len()];
         let mut sim = Self::restore(model, inputs, state)?;
         // Settle contacts present at the start (impact, sticking).
         sim.advance_to(start_time)?;
@@ -262,6 +283,46 @@ impl Simulation {
         self.model.energy(&self.state.current)
     }
 
+    pub fn energy_balance(&self) -> Option<&EnergyBalance> {
+        self.state.balance.as_ref()
+    }
+
+    /// Adds the loads' work and the damping's dissipation over the part of
+    /// the current segment not yet counted, up to `t`, by Gauss-Legendre
+    /// quadrature fine enough for the fastest mode: the integrands are
+    /// smooth inside a segment, so the sums are exact to rounding.
+    fn accumulate_balance(&mut self, t: f64) {
+        let Some(from) = self.state.balance.as_ref().map(|b| b.time) else { return };
+        if t <= from {
+            return;
+        }
+        let n = self.model.n_modes();
+        let mut fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
+        for h in &self.dynamics.forcing.harmonics {
+            fastest = fastest.max(h.omega);
+        }
+        let mut st = ModalState::zeros(n);
+        let mut f = DVector::zeros(n);
+        let mut forcing = vec![0.0; n];
+        let mut damping = vec![0.0; n];
+        // qd_j f_j and qd_j^2 oscillate at up to twice the fastest frequency.
+        crate::solve::quadrature::for_each_node_band_limited(from, t, 2.0 * fastest, |tau, w| {
+            self.state_at(tau, &mut st);
+            self.dynamics.forcing.derivative(tau, 0, &mut f);
+            for j in 0..n {
+                let o = &self.model.oscillators[j];
+                forcing[j] += w * st.qd[j] * f[j];
+                damping[j] += w * 2.0 * o.a * st.qd[j] * st.qd[j];
+            }
+        });
+        let b = self.state.balance.as_mut().expect("checked above");
+        for j in 0..n {
+            b.forcing[j] += forcing[j];
+            b.damping[j] += damping[j];
+        }
+        b.time = t;
+    }
+
     /// The reaction of a stop at the current time (0 unless stuck to it).
     pub fn reaction(&self, stop: usize) -> f64 {
         self.reaction_at(stop, self.state.time, &self.state.current)
@@ -285,6 +346,9 @@ impl Simulation {
     pub fn set_inputs(&mut self, inputs: &[f64]) -> Result<(), SimError> {
         if inputs == self.inputs.as_slice() {
             return Ok(());
+        }
+        if inputs.len() != self.inputs.len() {
+            panic!("{} inputs given, the model has {}", inputs.len(), self.inputs.len());
         }
         self.inputs.copy_from_slice(inputs);
         self.dynamics.set_forcing(self.model.forcing_with_inputs(&self.inputs));
@@ -504,6 +568,7 @@ impl Simulation {
             self.stats.events += 1;
             if count > self.model.max_events_per_step {
                 // Stop consistently at the last point reached.
+                self.accumulate_balance(l);
                 self.state.time = l;
                 let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
                 self.state_at(l, &mut current);
@@ -512,6 +577,7 @@ impl Simulation {
             }
             self.handle_events(l, st.clone(), at_zero)?;
         }
+        self.accumulate_balance(t_end);
         self.state.time = t_end;
         let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
         self.state_at(t_end, &mut current);
@@ -559,6 +625,9 @@ impl Simulation {
             self.state.departing = departing;
             return Ok(());
         }
+        // The balance up to the event, in the segment ending here.
+        self.accumulate_balance(t);
+        let energy_before = self.model.energy(&st);
         let mut stuck = self.state.stuck;
         for &i in &releases {
             stuck &= !bit(i);
@@ -633,6 +702,10 @@ impl Simulation {
             system.project(&self.stuck_targets(stuck), &mut st);
         }
         self.state.stuck = stuck;
+        let lost = energy_before - self.model.energy(&st);
+        if let Some(b) = self.state.balance.as_mut() {
+            b.impacts += lost;
+        }
         self.state.anchor = st;
         self.state.anchor_time = t;
         self.state.scan = t;

@@ -6,6 +6,7 @@
 //!   beamstop describe scene.json         print the modelDescription.xml of a scene
 //!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml for scenes/
 //!   beamstop check scene.json ...        validate scenes
+//!   beamstop modes SUPPORT N [X ...]     dimensionless beam modes as JSON
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -21,7 +22,9 @@ const USAGE: &str = "usage:
                                           simulate a scene natively (default: scenes/pinned_beam.json)
   beamstop describe scene.json           print the scene's modelDescription.xml
   beamstop model-descriptions            rewrite modelDescription/<Name>.xml for every scene in scenes/
-  beamstop check scene.json ...          validate scene files";
+  beamstop check scene.json ...          validate scene files
+  beamstop modes SUPPORT N [X ...]       beta_j and W_j(X), W_j''(X) of the unit-mean-square shapes
+                                          (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -162,6 +165,34 @@ fn run(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+/// The dimensionless modes of a beam as JSON, for independent checks.
+fn modes(args: &[String]) -> Result<(), String> {
+    use beamstop::structure::beam::DimensionlessMode;
+    use beamstop::structure::Support;
+    let support = match args.first().map(String::as_str) {
+        Some("pinned-pinned") => Support::PinnedPinned,
+        Some("clamped-free") => Support::ClampedFree,
+        Some("clamped-clamped") => Support::ClampedClamped,
+        Some("clamped-pinned") => Support::ClampedPinned,
+        other => return Err(format!("modes: unknown support {other:?}\n{USAGE}")),
+    };
+    let n: usize = args.get(1).and_then(|s| s.parse().ok()).filter(|n| (1..=500).contains(n)).ok_or("modes: N must be in 1..=500")?;
+    let xs: Vec<f64> = args[2..].iter().map(|s| s.parse::<f64>().map_err(|_| format!("modes: {s} is not a number"))).collect::<Result<_, _>>()?;
+    let list: Vec<serde_json::Value> = (1..=n)
+        .map(|j| {
+            let m = DimensionlessMode::new(support, j);
+            serde_json::json!({
+                "j": j,
+                "beta": m.beta,
+                "shape": xs.iter().map(|&x| m.derivative(0, x)).collect::<Vec<f64>>(),
+                "curvature": xs.iter().map(|&x| m.derivative(2, x)).collect::<Vec<f64>>(),
+            })
+        })
+        .collect();
+    println!("{}", serde_json::json!({ "x": xs, "modes": list }));
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
@@ -182,6 +213,7 @@ fn main() -> ExitCode {
             }
             Ok(())
         }),
+        Some("modes") => modes(&args[1..]),
         Some("check") if args.len() > 1 => args[1..].iter().try_for_each(|f| {
             load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name, s.guid()))
         }),

@@ -8,7 +8,9 @@ use std::fmt::Write;
 use crate::scene::Scene;
 
 use super::logging::CATEGORIES;
-use super::variables::{Causality, Variability, VariableTable};
+use crate::interface::Unit;
+
+use super::variables::{Causality, VarType, Variability, VariableTable};
 
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
@@ -36,6 +38,21 @@ pub fn model_description(scene: &Scene) -> String {
         x,
         r#"  <CoSimulation modelIdentifier="{id}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#
     );
+    let mut units: Vec<Unit> = table.variables.iter().filter(|v| v.ty == VarType::Real).map(|v| v.unit).collect();
+    units.sort();
+    units.dedup();
+    let _ = writeln!(x, "  <UnitDefinitions>");
+    for u in &units {
+        let e = u.si_exponents();
+        let mut attrs = String::new();
+        for (name, exp) in ["kg", "m", "s", "rad"].iter().zip(e) {
+            if exp != 0 {
+                let _ = write!(attrs, r#" {name}="{exp}""#);
+            }
+        }
+        let _ = writeln!(x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, escape(u.name()));
+    }
+    let _ = writeln!(x, "  </UnitDefinitions>");
     let _ = writeln!(x, "  <LogCategories>");
     for (name, description) in CATEGORIES {
         let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(description));
@@ -70,6 +87,9 @@ pub fn model_description(scene: &Scene) -> String {
             escape(&v.description),
         );
         let mut attrs = String::new();
+        if v.ty == VarType::Real {
+            let _ = write!(attrs, r#" unit="{}""#, escape(v.unit.name()));
+        }
         if let Some(s) = v.start {
             let _ = write!(attrs, r#" start="{}""#, num(s));
         }

@@ -10,7 +10,7 @@
 use nalgebra::DVector;
 
 use crate::model::Model;
-use crate::sim::{SimState, Simulation, StopState};
+use crate::sim::{EnergyBalance, SimState, Simulation, StopState};
 use crate::solve::ModalState;
 
 use super::instance::{Instance, Snapshot};
@@ -133,6 +133,16 @@ pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
                 w.opt_f64(stop.previous_impact);
             }
             w.modal(&st.current);
+            match &st.balance {
+                None => w.u8(0),
+                Some(b) => {
+                    w.u8(1);
+                    w.f64s(&b.forcing);
+                    w.f64s(&b.damping);
+                    w.f64(b.impacts);
+                    w.f64(b.time);
+                }
+            }
         }
     }
     w.0
@@ -183,7 +193,20 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
             .map(|_| Ok(StopState { impacts: r.u64()?, last_impact: r.f64()?, previous_impact: r.opt_f64()? }))
             .collect::<Result<Vec<_>, String>>()?;
         let current = r.modal(n)?;
-        let state = SimState { time, anchor_time, anchor, stuck, scan, departing, stops, current };
+        let balance = if r.u8()? == 0 {
+            None
+        } else {
+            Some(EnergyBalance {
+                forcing: r.f64s(n, "forcing energies")?,
+                damping: r.f64s(n, "damping energies")?,
+                impacts: r.f64()?,
+                time: r.f64()?,
+            })
+        };
+        if balance.is_some() != model.energy_balance {
+            return Err("serialized state and this FMU disagree on the energy balance outputs".into());
+        }
+        let state = SimState { time, anchor_time, anchor, stuck, scan, departing, stops, current, balance };
         Some(Simulation::restore(model, inputs.clone(), state).map_err(|e| e.to_string())?)
     };
     if r.at != bytes.len() {

@@ -2,7 +2,7 @@
 //! value references, causality, variability, start values. One table
 //! serves the instance (get/set) and the modelDescription.xml.
 
-use crate::interface::{self, Input, Output, OutputType, Parameter};
+use crate::interface::{self, Input, Output, OutputType, Parameter, Unit};
 use crate::scene::Scene;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,7 +50,7 @@ pub struct Variable {
     pub vr: u32,
     pub name: String,
     pub description: String,
-    pub unit: &'static str,
+    pub unit: Unit,
     pub ty: VarType,
     pub causality: Causality,
     pub variability: Variability,
@@ -110,18 +110,12 @@ impl VariableTable {
             });
         }
         for (i, o) in outputs.iter().enumerate() {
-            let (ty, variability) = match o.kind {
-                OutputType::Real => (
-                    VarType::Real,
-                    if matches!(o.key, interface::OutputKey::StopLastImpact(_)) {
-                        Variability::Discrete
-                    } else {
-                        Variability::Continuous
-                    },
-                ),
-                OutputType::Integer => (VarType::Integer, Variability::Discrete),
-                OutputType::Boolean => (VarType::Boolean, Variability::Discrete),
+            let ty = match o.kind {
+                OutputType::Real => VarType::Real,
+                OutputType::Integer => VarType::Integer,
+                OutputType::Boolean => VarType::Boolean,
             };
+            let variability = if o.discrete { Variability::Discrete } else { Variability::Continuous };
             variables.push(Variable {
                 vr: variables.len() as u32,
                 name: o.name.clone(),

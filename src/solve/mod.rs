@@ -11,6 +11,7 @@ pub mod free;
 pub mod functional;
 pub mod lti;
 pub mod oscillator;
+pub mod quadrature;
 
 pub use forcing::{Harmonic, ModalForcing};
 pub use free::{FreeDynamics, FreeSegment, ModalState};
