@@ -7,6 +7,7 @@
 //!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml for scenes/
 //!   beamstop check scene.json ...        validate scenes
 //!   beamstop modes SUPPORT N [X ...]     dimensionless beam modes as JSON
+//!   beamstop measure CONFIG.json         timed runs and results for the report (JSON out)
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -24,7 +25,9 @@ const USAGE: &str = "usage:
   beamstop model-descriptions            rewrite modelDescription/<Name>.xml for every scene in scenes/
   beamstop check scene.json ...          validate scene files
   beamstop modes SUPPORT N [X ...]       beta_j and W_j(X), W_j''(X) of the unit-mean-square shapes
-                                          (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)";
+                                          (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)
+  beamstop measure CONFIG.json           time a scene natively and print its impacts, final state and a dense
+                                          grid of the first stop's displacement as JSON (see src/bin/measure.rs)";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -193,6 +196,8 @@ fn modes(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+mod measure;
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
@@ -214,6 +219,10 @@ fn main() -> ExitCode {
             Ok(())
         }),
         Some("modes") => modes(&args[1..]),
+        Some("measure") => match args.get(1) {
+            Some(f) => measure::measure(Path::new(f)),
+            None => Err(USAGE.into()),
+        },
         Some("check") if args.len() > 1 => args[1..].iter().try_for_each(|f| {
             load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name, s.guid()))
         }),
