@@ -17,7 +17,7 @@ use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
 use crate::solve::free::{ModalBounds, ModalJet};
 use crate::solve::lti::{CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
-use crate::solve::{FreeDynamics, FreeSegment, Functional, Jet, ModalState};
+use crate::solve::{DerivativeBounds, FreeDynamics, FreeSegment, Functional, Jet, ModalState};
 
 /// What happened at an event.
 #[derive(Clone, Debug, PartialEq)]
@@ -448,44 +448,25 @@ impl Simulation {
     /// Jets of every stop's event function at time `t` (state `st`), and the
     /// certified step or the list of functions at zero.
     fn probe(&self, t: f64, st: &ModalState, jet_buf: &mut ModalJet, bound_buf: &mut ModalBounds) -> Probe {
-        let n_stops = self.model.stops.len();
-        let mut at_zero = Vec::new();
-        let mut step = f64::INFINITY;
-        let mut limiting = None;
-        let mut keep = 0u64;
+        let mut scan = Scan { departing: self.state.departing, ..Scan::default() };
         let tol = self.model.event_tolerance;
         match &self.segment {
             Segment::Free(seg) => {
-                if n_stops == 0 {
-                    return Probe::Clear { step: f64::INFINITY, limiting: None, departing: 0 };
+                if self.model.stops.is_empty() {
+                    return scan.finish();
                 }
                 jet_buf.fill_free(&self.dynamics, t, st);
                 let mut bounds_ready = false;
-                for i in 0..n_stops {
-                    let mut jet = jet_buf.functional(&self.gap_functionals[i], t);
+                for (i, gap) in self.gap_functionals.iter().enumerate() {
+                    let mut jet = jet_buf.functional(gap, t);
                     jet.noise[0] = jet.noise[0].max(tol);
-                    let departing = self.state.departing & bit(i) != 0;
-                    if jet.d[0] <= jet.noise[0] {
-                        if !departing {
-                            at_zero.push((i, jet));
-                            continue;
+                    scan.consider(i, jet, || {
+                        if !bounds_ready {
+                            seg.fill_bounds(&self.dynamics, t, st, self.tau_max, bound_buf);
+                            bounds_ready = true;
                         }
-                        keep |= bit(i);
-                    }
-                    if !bounds_ready {
-                        seg.fill_bounds(&self.dynamics, t, st, self.tau_max, bound_buf);
-                        bounds_ready = true;
-                    }
-                    let b = bound_buf.functional(&self.gap_functionals[i], self.tau_max);
-                    match certified_step(&jet, &b, departing) {
-                        Certified::Clear(s) => {
-                            if s < step {
-                                step = s;
-                                limiting = Some((i, jet));
-                            }
-                        }
-                        Certified::AtZero => at_zero.push((i, jet)),
-                    }
+                        bound_buf.functional(gap, self.tau_max)
+                    });
                 }
             }
             Segment::Coupled { system, segment, events, .. } => {
@@ -496,33 +477,14 @@ impl Simulation {
                     if self.state.stuck & bit(i) == 0 {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
-                    let departing = self.state.departing & bit(i) != 0;
-                    if jet.d[0] <= jet.noise[0] {
-                        if !departing {
-                            at_zero.push((i, jet));
-                            continue;
-                        }
-                        keep |= bit(i);
-                    }
-                    let coords = coords.get_or_insert_with(|| segment.coordinate_bounds(system, &sample, self.tau_max));
-                    let b = segment.bounds(&self.dynamics.forcing, p, coords, self.tau_max);
-                    match certified_step(&jet, &b, departing) {
-                        Certified::Clear(s) => {
-                            if s < step {
-                                step = s;
-                                limiting = Some((i, jet));
-                            }
-                        }
-                        Certified::AtZero => at_zero.push((i, jet)),
-                    }
+                    scan.consider(i, jet, || {
+                        let coords = coords.get_or_insert_with(|| segment.coordinate_bounds(system, &sample, self.tau_max));
+                        segment.bounds(&self.dynamics.forcing, p, coords, self.tau_max)
+                    });
                 }
             }
         }
-        if at_zero.is_empty() {
-            Probe::Clear { step, limiting, departing: keep }
-        } else {
-            Probe::Events(at_zero)
-        }
+        scan.finish()
     }
 
     /// Advances to `t_end`, handling every event on the way (including one
@@ -727,4 +689,52 @@ enum Probe {
     /// within noise of their boundary.
     Clear { step: f64, limiting: Option<(usize, Jet)>, departing: u64 },
     Events(Vec<(usize, Jet)>),
+}
+
+/// The event functions' verdicts at one point, gathered.
+struct Scan {
+    /// Bits of the functions leaving their boundary (input).
+    departing: u64,
+    at_zero: Vec<(usize, Jet)>,
+    step: f64,
+    limiting: Option<(usize, Jet)>,
+    keep: u64,
+}
+
+impl Default for Scan {
+    fn default() -> Self {
+        Scan { departing: 0, at_zero: Vec::new(), step: f64::INFINITY, limiting: None, keep: 0 }
+    }
+}
+
+impl Scan {
+    /// One function: at its zero (an event), or clear for a certified step;
+    /// the derivative bounds are only computed when needed.
+    fn consider(&mut self, i: usize, jet: Jet, bounds: impl FnOnce() -> DerivativeBounds) {
+        let departing = self.departing & bit(i) != 0;
+        if jet.d[0] <= jet.noise[0] {
+            if !departing {
+                self.at_zero.push((i, jet));
+                return;
+            }
+            self.keep |= bit(i);
+        }
+        match certified_step(&jet, &bounds(), departing) {
+            Certified::Clear(s) => {
+                if s < self.step {
+                    self.step = s;
+                    self.limiting = Some((i, jet));
+                }
+            }
+            Certified::AtZero => self.at_zero.push((i, jet)),
+        }
+    }
+
+    fn finish(self) -> Probe {
+        if self.at_zero.is_empty() {
+            Probe::Clear { step: self.step, limiting: self.limiting, departing: self.keep }
+        } else {
+            Probe::Events(self.at_zero)
+        }
+    }
 }

@@ -4,13 +4,14 @@
 
 use std::f64::consts::{PI, SQRT_2};
 
+mod common;
+
 use beamstop::interface::ParamKey;
 use beamstop::{EventKind, Model, Scene, SimError, Simulation};
 use nalgebra::DVector;
 
 fn pinned_scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap();
-    Scene::from_json(&text).unwrap()
+    common::scene("pinned_beam")
 }
 
 fn with(mut scene: Scene, values: &[(ParamKey, f64)]) -> Scene {
@@ -38,7 +39,7 @@ fn free_vibration(r: f64) -> Scene {
 }
 
 fn impact_times(s: &mut Simulation) -> Vec<f64> {
-    s.drain_events().into_iter().filter(|e| matches!(e.kind, EventKind::Impact { .. })).map(|e| e.time).collect()
+    common::impacts(s).into_iter().map(|i| i.0).collect()
 }
 
 #[test]

@@ -5,23 +5,11 @@
 
 use std::f64::consts::PI;
 
+mod common;
+
 use beamstop::interface::ParamKey;
 use beamstop::{EventKind, Model, Scene, Simulation};
-
-fn load(name: &str) -> Scene {
-    let path = format!("{}/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"));
-    Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
-
-fn impacts(sim: &mut Simulation) -> Vec<(f64, f64)> {
-    sim.drain_events()
-        .into_iter()
-        .filter_map(|e| match e.kind {
-            EventKind::Impact { speed, .. } => Some((e.time, speed)),
-            _ => None,
-        })
-        .collect()
-}
+use common::{impacts, scene as load};
 
 #[test]
 fn chain_settles_on_p11_and_satisfies_the_seed_energy_balance() {

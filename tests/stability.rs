@@ -9,13 +9,14 @@
 
 use std::f64::consts::{PI, SQRT_2};
 
+mod common;
+
 use beamstop::interface::ParamKey;
 use beamstop::scene::StructureSpec;
 use beamstop::{EventKind, Model, Scene, Simulation};
 
 fn pinned() -> Scene {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json");
-    Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap()
+    common::scene("pinned_beam")
 }
 
 /// With seed 003's energy accounting switched on.
@@ -115,14 +116,7 @@ impl Watch {
     }
 
     fn impacts(&mut self) -> Vec<(f64, f64)> {
-        self.sim
-            .drain_events()
-            .into_iter()
-            .filter_map(|e| match e.kind {
-                EventKind::Impact { speed, .. } => Some((e.time, speed)),
-                _ => None,
-            })
-            .collect()
+        common::impacts(&mut self.sim)
     }
 }
 
@@ -362,9 +356,7 @@ fn si_steel_beam_and_micro_cantilever_magnitudes() {
     // AFM-like silicon micro-cantilever (200 x 30 x 2 um, omega_1 = 4e5
     // rad/s, gap 10 nm, forced at resonance) run with every invariant
     // holding and impact.
-    let steel_path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/steel_cantilever.json");
-    let mut steel = Scene::from_json(&std::fs::read_to_string(steel_path).unwrap()).unwrap();
-    steel.outputs.energy_balance = true;
+    let steel = balanced(common::scene("steel_cantilever"));
     let mut w = Watch::new(&steel);
     w.sample(1.0, 500);
     assert!(w.sim.state().stops[0].impacts > 10);
