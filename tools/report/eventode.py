@@ -11,13 +11,13 @@ Sticking:     qdd = f - D qd - K q + w lambda,
               released when lambda crosses zero upwards (event).
 
 Used both as a baseline (RK45, DOP853, Radau, LSODA across tolerances) and,
-at rtol = atol = 1e-13 with two different integrators, as the reference of
-the scenes with sticking (S3) and of the chain (S4).
+at rtol = atol = 1e-13 with two different integrators (DOP853, Radau), as the
+cross-check of the extended-precision references (references.py). On S3 it
+cannot follow the chatter (see summary.md), whatever the tolerances.
 """
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -89,8 +89,7 @@ class EventSolver:
         Om = self.s.Omega
         return float(self.lam_row @ y) - (self.w_f[0] * math.sin(Om * t) + self.w_f[1] * math.cos(Om * t))
 
-    def run(self, method: str, rtol: float, atol: float, dense: bool = False, max_events: int = 20000,
-            first_step=None, refine_events: bool = False) -> Result:
+    def run(self, method: str, rtol: float, atol: float, dense: bool = False, max_events: int = 20000) -> Result:
         s, n = self.s, self.n
         res = Result()
         t, y = 0.0, s.y0().astype(float)
@@ -130,8 +129,6 @@ class EventSolver:
                 if implicit:
                     jac_kw = {"jac": (lambda tt, yy, A=self.A_stuck: A)}
             kw = dict(method=method, rtol=rtol, atol=atol, events=[ev], dense_output=dense, **jac_kw)
-            if first_step is not None:
-                kw["first_step"] = first_step
             sol = solve_ivp(fun, (t, t_end), y, **kw)
             res.nfev += sol.nfev
             if not sol.success:
@@ -142,15 +139,6 @@ class EventSolver:
             if sol.status == 1 and len(sol.t_events[0]):
                 te = float(sol.t_events[0][0])
                 ye = np.array(sol.y_events[0][0], float)
-                if refine_events and len(sol.t) >= 2 and te > sol.t[-2]:
-                    # the state at the event from a step that ends there, not
-                    # from the continuous extension (which is less accurate)
-                    kw2 = dict(kw)
-                    kw2.pop("events")
-                    kw2["dense_output"] = False
-                    again = solve_ivp(fun, (float(sol.t[-2]), te), sol.y[:, -2], **kw2)
-                    res.nfev += again.nfev
-                    ye = again.y[:, -1].copy()
                 events_done += 1
                 if te <= t:
                     res.failed = f"event did not advance at t = {t:.17g}"
@@ -186,22 +174,3 @@ class EventSolver:
         y[:n] += (self.s.d - w @ y[:n]) * w / ww
         y[n:] -= (w @ y[n:]) * w / ww
         return y
-
-
-def timed_run(scene: Scene, method: str, rtol: float, atol: float, repeats: int = 3, budget: float = 0.5):
-    """Best of up to `repeats` timed runs (fewer when one run takes longer
-    than `budget` seconds), then one untimed run with dense output for the
-    errors (the steps are the same: dense output does not change them)."""
-    solver = EventSolver(scene)
-    times = []
-    res = None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        res = solver.run(method, rtol, atol)
-        times.append(time.perf_counter() - t0)
-        if times[-1] > budget or res.failed:
-            break
-    dense = solver.run(method, rtol, atol, dense=True)
-    dense.wall = min(times)
-    dense.wall_all = times
-    return dense

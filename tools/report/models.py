@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 PI = math.pi
+ROOT = Path(__file__).resolve().parents[2]  # the repository
 SCENE_PINNED = "scenes/pinned_beam.json"
 SCENE_CHAIN = "scenes/wagg_bishop_chain.json"
 FMU_PINNED = "target/fmu/PinnedBeamStop.fmu"

@@ -26,7 +26,7 @@ import mpmath
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .models import Scene, beam_modes
+from .models import Scene
 
 
 def _mp_vec(x):

@@ -12,9 +12,9 @@ from ctypes import byref
 
 import numpy as np
 
-from .models import Scene
+from .models import ROOT, Scene
 
-EXE = "target/release/beamstop"
+EXE = str(ROOT / "target" / "release" / "beamstop")
 
 
 def measure(scene: Scene, *, event_tolerance=None, step=0.0, repeats=20, dense_dt=None, modes=None,
@@ -35,7 +35,7 @@ def measure(scene: Scene, *, event_tolerance=None, step=0.0, repeats=20, dense_d
         json.dump(cfg, f)
         path = f.name
     try:
-        p = subprocess.run([EXE, "measure", path], capture_output=True, text=True)
+        p = subprocess.run([EXE, "measure", path], capture_output=True, text=True, cwd=ROOT)
     finally:
         os.unlink(path)
     if p.returncode != 0:
@@ -63,8 +63,9 @@ class FmuRunner:
         from fmpy import extract, read_model_description
 
         self.scene = scene
-        self.md = read_model_description(scene.fmu)
-        self.dir = extract(scene.fmu)
+        fmu_path = str(ROOT / scene.fmu)
+        self.md = read_model_description(fmu_path)
+        self.dir = extract(fmu_path)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         pre = scene.fmu_prefix
         n = scene.n

@@ -99,11 +99,13 @@ pub fn measure(config: &Path) -> Result<(), String> {
     times.sort_by(f64::total_cmp);
     let median = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
 
-    let mut sim = Simulation::new(model.clone(), start).map_err(|e| e.to_string())?;
+    // The dense grid: a run of its own, stepped at dense_dt.
     let w = model.stops.first().map(|s| s.w.clone());
     let mut dense_t = Vec::new();
     let mut dense_w = Vec::new();
     if cfg.dense_dt > 0.0 {
+        let mut sim = Simulation::new(model.clone(), start).map_err(|e| e.to_string())?;
+        sim.set_event_recording(false);
         let n = (cfg.t_end / cfg.dense_dt).round() as usize;
         for k in 0..=n {
             let t = (start + k as f64 * cfg.dense_dt).min(cfg.t_end);
@@ -112,6 +114,8 @@ pub fn measure(config: &Path) -> Result<(), String> {
             dense_w.push(w.as_ref().map_or(0.0, |w| w.dot(&sim.current().q)));
         }
     }
+    // The events and the final state: the timed configuration, untimed.
+    let mut sim = Simulation::new(model.clone(), start).map_err(|e| e.to_string())?;
     advance(&mut sim, cfg.t_end, cfg.step)?;
     let events = sim.drain_events();
     let impacts: Vec<f64> = events.iter().filter(|e| matches!(e.kind, EventKind::Impact { .. })).map(|e| e.time).collect();
