@@ -15,7 +15,8 @@ use nalgebra::DVector;
 use crate::contact::restitution::{apply_impact, energy_loss, ImpactRow};
 use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
-use crate::solve::free::{ModalBounds, ModalJet};
+use crate::solve::free::{Increment, ModalBounds, ModalJet};
+use crate::solve::functional::NOISE;
 use crate::solve::lti::{CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
 use crate::solve::{DerivativeBounds, FreeDynamics, FreeSegment, Functional, Jet, ModalState};
 
@@ -127,7 +128,14 @@ pub struct EnergyBalance {
 
 #[derive(Clone, Debug)]
 enum Segment {
-    Free(FreeSegment),
+    Free {
+        segment: FreeSegment,
+        /// Each stop's gap at the anchor: exactly 0 for a stop the event
+        /// handling just put on its boundary (impact, release), so that the
+        /// gap along the segment is that plus an increment accurate relative
+        /// to itself.
+        anchor_gaps: Vec<f64>,
+    },
     Coupled {
         system: Arc<CoupledSystem>,
         segment: CoupledSegment,
@@ -153,6 +161,9 @@ pub struct Simulation {
     record_events: bool,
     events: Vec<Event>,
     stats: Stats,
+    /// Work space of the event search, kept between calls (derived from
+    /// the dynamics: dropped when they change).
+    scratch: Option<ProbeBuffers>,
 }
 
 /// Work counters of a run.
@@ -220,7 +231,7 @@ impl Simulation {
         let dynamics = FreeDynamics::new(model.oscillators.clone(), model.forcing_with_inputs(&inputs));
         let gap_functionals = model.stops.iter().map(|s| s.gap_functional()).collect();
         let tau_max = TAU_MAX_PERIODS * model.shortest_period();
-        let segment = Segment::Free(FreeSegment::new(&dynamics, state.anchor_time, &state.anchor));
+        let segment = Segment::Free { segment: FreeSegment::new(&dynamics, state.anchor_time, &state.anchor), anchor_gaps: Vec::new() };
         let mut sim = Simulation {
             model,
             dynamics,
@@ -233,6 +244,7 @@ impl Simulation {
             record_events: true,
             events: Vec::new(),
             stats: Stats::default(),
+            scratch: None,
         };
         sim.rebuild_segment()?;
         Ok(sim)
@@ -338,7 +350,7 @@ impl Simulation {
                 }
                 None => 0.0,
             },
-            Segment::Free(_) => 0.0,
+            Segment::Free { .. } => 0.0,
         }
     }
 
@@ -352,6 +364,7 @@ impl Simulation {
         }
         self.inputs.copy_from_slice(inputs);
         self.dynamics.set_forcing(self.model.forcing_with_inputs(&self.inputs));
+        self.scratch = None;
         self.reanchor_now()
     }
 
@@ -371,6 +384,7 @@ impl Simulation {
         self.gap_functionals = model.stops.iter().map(|s| s.gap_functional()).collect();
         self.model = model;
         self.dynamics = FreeDynamics::new(self.model.oscillators.clone(), self.model.forcing_with_inputs(&self.inputs));
+        self.scratch = None;
         self.reanchor_now()
     }
 
@@ -414,7 +428,14 @@ impl Simulation {
     fn rebuild_segment(&mut self) -> Result<(), SimError> {
         let mask = self.state.stuck;
         if mask == 0 {
-            self.segment = Segment::Free(FreeSegment::new(&self.dynamics, self.state.anchor_time, &self.state.anchor));
+            let anchor = &self.state.anchor;
+            let anchor_gaps = self
+                .gap_functionals
+                .iter()
+                .enumerate()
+                .map(|(i, g)| if self.state.departing & bit(i) != 0 { 0.0 } else { g.offset + g.q.dot(&anchor.q) })
+                .collect();
+            self.segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), anchor_gaps };
             return Ok(());
         }
         let system = self.coupled_system(mask)?;
@@ -440,18 +461,20 @@ impl Simulation {
 
     fn state_at(&self, t: f64, out: &mut ModalState) {
         match &self.segment {
-            Segment::Free(seg) => seg.state_at(&self.dynamics, t, out),
+            Segment::Free { segment, .. } => segment.state_at(&self.dynamics, t, out),
             Segment::Coupled { system, segment, .. } => segment.state_at(system, t, out),
         }
     }
 
     /// Jets of every stop's event function at time `t` (state `st`), and the
     /// certified step or the list of functions at zero.
-    fn probe(&self, t: f64, st: &ModalState, jet_buf: &mut ModalJet, bound_buf: &mut ModalBounds) -> Probe {
+    fn probe(&self, t: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Probe {
         let mut scan = Scan { departing: self.state.departing, ..Scan::default() };
         let tol = self.model.event_tolerance;
+        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, .. } = buffers;
         match &self.segment {
-            Segment::Free(seg) => {
+            Segment::Free { segment: seg, anchor_gaps } => {
+                seg.state_and_increment_at(&self.dynamics, t, st, increment);
                 if self.model.stops.is_empty() {
                     return scan.finish();
                 }
@@ -459,10 +482,13 @@ impl Simulation {
                 let mut bounds_ready = false;
                 for (i, gap) in self.gap_functionals.iter().enumerate() {
                     let mut jet = jet_buf.functional(gap, t);
-                    jet.noise[0] = jet.noise[0].max(tol);
+                    // The gap itself from the anchor's plus the increment.
+                    let (dg, noise) = increment.functional(&gap.q);
+                    jet.d[0] = anchor_gaps[i] + dg;
+                    jet.noise[0] = (noise + NOISE * anchor_gaps[i].abs()).max(tol);
                     scan.consider(i, jet, || {
                         if !bounds_ready {
-                            seg.fill_bounds(&self.dynamics, t, st, self.tau_max, bound_buf);
+                            seg.fill_bounds(&self.dynamics, st, increment, self.tau_max, bound_buf);
                             bounds_ready = true;
                         }
                         bound_buf.functional(gap, self.tau_max)
@@ -470,6 +496,7 @@ impl Simulation {
                 }
             }
             Segment::Coupled { system, segment, events, .. } => {
+                segment.state_at(system, t, st);
                 let sample = segment.sample(system, t);
                 let mut coords = None;
                 for (i, p) in events.iter().enumerate() {
@@ -493,19 +520,28 @@ impl Simulation {
         if t_end < self.state.time {
             return Err(SimError::Backwards { now: self.state.time, requested: t_end });
         }
-        let n = self.model.n_modes();
-        let mut st = ModalState::zeros(n);
-        let mut jet_buf = ModalJet::new(n);
-        let mut bound_buf = ModalBounds::new(n);
+        let mut buffers = self.scratch.take().unwrap_or_else(|| ProbeBuffers::new(&self.dynamics));
+        let result = self.advance_with(t_end, &mut buffers);
+        self.scratch = Some(buffers);
+        result
+    }
+
+    fn advance_with(&mut self, t_end: f64, buffers: &mut ProbeBuffers) -> Result<(), SimError> {
+        let mut st = std::mem::replace(&mut buffers.state, ModalState::zeros(0));
+        let result = self.scan_to(t_end, &mut st, buffers);
+        buffers.state = st;
+        result
+    }
+
+    fn scan_to(&mut self, t_end: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Result<(), SimError> {
         let mut count = 0u64;
         loop {
             let l = self.state.scan;
             if l > t_end {
                 break;
             }
-            self.state_at(l, &mut st);
             self.stats.probes += 1;
-            let at_zero = match self.probe(l, &st, &mut jet_buf, &mut bound_buf) {
+            let at_zero = match self.probe(l, st, buffers) {
                 Probe::Events(list) => list,
                 Probe::Clear { step, limiting, departing } => {
                     // Clear down to the search's resolution: step on.
@@ -681,6 +717,22 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+}
+
+/// Work space of the event search.
+#[derive(Clone, Debug)]
+struct ProbeBuffers {
+    state: ModalState,
+    jet: ModalJet,
+    bounds: ModalBounds,
+    increment: Increment,
+}
+
+impl ProbeBuffers {
+    fn new(dynamics: &FreeDynamics) -> Self {
+        let n = dynamics.oscillators.len();
+        ProbeBuffers { state: ModalState::zeros(n), jet: ModalJet::new(n), bounds: ModalBounds::new(dynamics), increment: Increment::new(n) }
     }
 }
 

@@ -93,7 +93,7 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
             // |h2| (3 h2 / h3)^2 / 2 deep at most; within rounding, it is the
             // boundary itself, and the quartic bound certifies beyond it.
             let s_dip = 3.0 * h2c.abs() / h3;
-            if 0.5 * h2c.abs() * s_dip * s_dip <= jet.noise[0].max(f64::MIN_POSITIVE) {
+            if 0.5 * h2c.abs() * s_dip * s_dip <= jet.slack.max(jet.noise[0]).max(f64::MIN_POSITIVE) {
                 best = best.max(quartic(h2c));
             }
         }
@@ -133,7 +133,7 @@ mod tests {
     use super::*;
 
     fn jet(d: [f64; 4]) -> Jet {
-        Jet { d, noise: [1e-16; 4] }
+        Jet { d, noise: [1e-16; 4], slack: 1e-16 }
     }
 
     #[test]

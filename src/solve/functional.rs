@@ -46,6 +46,10 @@ impl Functional {
 pub struct Jet {
     pub d: [f64; 4],
     pub noise: [f64; 4],
+    /// The rounding level of `h` measured from the absolute state: a dip
+    /// below zero no deeper than this is the boundary itself (`noise[0]`
+    /// can be far smaller when `h` is computed as an increment).
+    pub slack: f64,
 }
 
 impl Jet {
@@ -59,6 +63,7 @@ impl Jet {
         for m in 1..3 {
             self.noise[m] += self.d[m + 1].abs() * dt;
         }
+        self.slack = self.slack.max(self.noise[0]);
         self
     }
 }

@@ -29,19 +29,22 @@ pub fn phi1(z: C64) -> C64 {
     }
 }
 
-/// `(cos sqrt(q), sin sqrt(q) / sqrt(q))` continued to `q < 0` as cosh / sinh,
-/// with the Taylor series near `q = 0` (critical damping).
-fn c0_s0(q: f64) -> (f64, f64) {
+/// `(cos sqrt(q), sin sqrt(q) / sqrt(q), cos sqrt(q) - 1)` continued to
+/// `q < 0` as cosh / sinh, with the Taylor series near `q = 0` (critical
+/// damping); the last one without cancellation for small `q`.
+fn c0_s0(q: f64) -> (f64, f64, f64) {
     if q.abs() < 1e-2 {
-        let c = 1.0 - q / 2.0 * (1.0 - q / 12.0 * (1.0 - q / 30.0 * (1.0 - q / 56.0 * (1.0 - q / 90.0))));
+        let cm1 = -q / 2.0 * (1.0 - q / 12.0 * (1.0 - q / 30.0 * (1.0 - q / 56.0 * (1.0 - q / 90.0))));
         let s = 1.0 - q / 6.0 * (1.0 - q / 20.0 * (1.0 - q / 42.0 * (1.0 - q / 72.0 * (1.0 - q / 110.0))));
-        (c, s)
+        (1.0 + cm1, s, cm1)
     } else if q > 0.0 {
         let r = q.sqrt();
-        (r.cos(), r.sin() / r)
+        let h = (0.5 * r).sin();
+        (r.cos(), r.sin() / r, -2.0 * h * h)
     } else {
         let r = (-q).sqrt();
-        (r.cosh(), r.sinh() / r)
+        let h = (0.5 * r).sinh();
+        (r.cosh(), r.sinh() / r, 2.0 * h * h)
     }
 }
 
@@ -80,6 +83,14 @@ impl Oscillator {
     /// Free-response kernels `(Ec, Es)` at time `t >= 0`:
     /// `x = x0 Ec + (v0 + a x0) Es`, `v = v0 Ec - (a v0 + omega^2 x0) Es`.
     pub fn kernels(&self, t: f64) -> (f64, f64) {
+        let (ec, es, _) = self.kernels_and_increment(t);
+        (ec, es)
+    }
+
+    /// `(Ec, Es, Ec - 1)`, the last without cancellation for small `t`:
+    /// displacements relative to the anchor stay accurate relative to
+    /// themselves (the tiny flights of a chatter sequence).
+    pub fn kernels_and_increment(&self, t: f64) -> (f64, f64, f64) {
         let r = self.root * t;
         if self.dd < 0.0 && r > 2.0 {
             // Strongly over-damped: separate slow and fast rates (numerics.md).
@@ -89,12 +100,15 @@ impl Oscillator {
             let es_slow = (-slow * t).exp();
             let ec = 0.5 * (es_slow + (-fast * t).exp());
             let es = es_slow * (-(-2.0 * mu * t).exp_m1()) / (2.0 * mu);
-            return (ec, es);
+            let ec_m1 = 0.5 * ((-slow * t).exp_m1() + (-fast * t).exp_m1());
+            return (ec, es, ec_m1);
         }
         let q = if self.dd >= 0.0 { r * r } else { -r * r };
-        let (c0, s0) = c0_s0(q);
-        let e = (-self.a * t).exp();
-        (e * c0, e * t * s0)
+        let (c0, s0, c0m1) = c0_s0(q);
+        let em1 = (-self.a * t).exp_m1();
+        let e = 1.0 + em1;
+        // e c0 - 1 = (e - 1) c0 + (c0 - 1)
+        (e * c0, e * t * s0, em1 * c0 + c0m1)
     }
 
     /// Free response `(x, v)` at time `t` from `(x0, v0)` at time 0.
@@ -192,6 +206,21 @@ mod tests {
         assert!((below.0 - at.0).abs() < 1e-12 && (above.1 - at.1).abs() < 1e-12 && (below.1 - above.1).abs() < 1e-12);
         // Critical damping closed form: Es = t e^{-omega t}.
         assert!((at.1 - 0.8 * (-4.0f64).exp()).abs() < 1e-16);
+    }
+
+    #[test]
+    fn the_increment_of_ec_is_accurate_for_tiny_times() {
+        for zeta in [0.0, 0.3, 1.0, 3.0] {
+            let osc = Oscillator::new(7.0, zeta);
+            let t = 1e-9;
+            let (_, _, inc) = osc.kernels_and_increment(t);
+            // Ec = e^{-a t} C0 = 1 - a t + (a^2 - omega^2 (1 - zeta^2)) t^2 / 2 + O(t^3)
+            let dd = 49.0 * (1.0 - zeta * zeta);
+            let series = -osc.a * t + (osc.a * osc.a - dd) * t * t / 2.0;
+            assert!((inc / series - 1.0).abs() < 1e-7, "zeta {zeta}: {inc} vs {series}");
+            let (ec, _, inc) = osc.kernels_and_increment(0.8);
+            assert!((ec - 1.0 - inc).abs() < 1e-15);
+        }
     }
 
     #[test]
