@@ -656,7 +656,7 @@ impl Simulation {
             .filter(|&i| stuck & bit(i) != 0 || sticks.contains(&i) || impacts.iter().any(|&(k, _)| k == i))
             .collect();
         let before = st.qd.clone();
-        {
+        if !impacts.is_empty() || !sticks.is_empty() {
             let rows: Vec<ImpactRow> = involved
                 .iter()
                 .map(|&i| ImpactRow { w: &self.model.stops[i].w, restitution: restitution[i], side: self.model.stops[i].side })
@@ -676,20 +676,24 @@ impl Simulation {
             departing |= bit(i);
         }
         // After the last impact of a chatter sequence the contact velocity is
-        // zero: the beam sticks if the loads press it on (eq. 33 reaction of
-        // the right sign), else it leaves.
+        // zero: the beam sticks if the loads press it on (the reaction of seed
+        // 000 eq. 32 of the right sign), else it leaves. Zero-velocity
+        // contacts found pressed stick.
         let mut jet_buf = ModalJet::new(self.model.n_modes());
         jet_buf.fill_free(&self.dynamics, t, &st);
-        for &i in chatter_ends.iter().chain(sticks.iter()) {
+        for &i in &chatter_ends {
             let jet = jet_buf.functional(&self.gap_functionals[i], t);
-            let pressed = sticks.contains(&i) || tendency_from(&jet, 2) == Tendency::Closing;
-            if pressed {
+            if tendency_from(&jet, 2) == Tendency::Closing {
                 stuck |= bit(i);
-                self.state.stops[i].previous_impact = None;
             }
         }
         for &i in &sticks {
-            departing |= bit(i);
+            stuck |= bit(i);
+        }
+        for i in 0..self.model.stops.len() {
+            if stuck & bit(i) != 0 {
+                self.state.stops[i].previous_impact = None;
+            }
         }
         let newly_stuck = stuck & !self.state.stuck;
         departing |= newly_stuck;

@@ -103,14 +103,6 @@ impl Instance {
         &self.table
     }
 
-    pub fn scene(&self) -> &Scene {
-        &self.scene
-    }
-
-    pub fn machine(&self) -> ModelState {
-        self.machine
-    }
-
     /// Checks the state machine table; logs an illegal call.
     pub fn enter(&self, f: Function) -> CallResult {
         f.check(self.machine).map_err(|m| self.fail(&m))

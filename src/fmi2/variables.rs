@@ -137,7 +137,4 @@ impl VariableTable {
         self.variables.get(vr as usize)
     }
 
-    pub fn by_name(&self, name: &str) -> Option<&Variable> {
-        self.variables.iter().find(|v| v.name == name)
-    }
 }

@@ -71,15 +71,6 @@ impl Oscillator {
         self.dd > 0.0
     }
 
-    /// The damped natural frequency `omega sqrt(1 - zeta^2)` (0 when over-damped).
-    pub fn damped_frequency(&self) -> f64 {
-        if self.dd > 0.0 {
-            self.root
-        } else {
-            0.0
-        }
-    }
-
     /// Free-response kernels `(Ec, Es)` at time `t >= 0`:
     /// `x = x0 Ec + (v0 + a x0) Es`, `v = v0 Ec - (a v0 + omega^2 x0) Es`.
     pub fn kernels(&self, t: f64) -> (f64, f64) {
