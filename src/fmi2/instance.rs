@@ -342,27 +342,33 @@ impl Instance {
                 }
             }
         }
-        if parameters_changed {
-            if let Err(e) = scene.validate() {
-                return Err(self.fail(&format!("fmi2SetReal: {e}")));
+        let inputs_changed = inputs != self.inputs;
+        match self.sim.as_mut() {
+            // Before initialisation: the scene's own checks (Model::build
+            // makes them too, once a simulation exists).
+            None if parameters_changed => {
+                if let Err(e) = scene.validate() {
+                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                }
             }
-        }
-        if let Some(sim) = self.sim.as_mut() {
-            let saved = sim.clone();
-            let model_applied = if parameters_changed {
-                Model::build(&scene).map_err(|e| e.to_string()).and_then(|m| sim.set_model(m).map_err(|e| e.to_string()))
-            } else {
-                Ok(())
-            };
-            let applied = model_applied.and_then(|()| sim.set_inputs(&inputs).map_err(|e| e.to_string()));
-            if let Err(e) = applied {
-                *sim = saved;
-                return Err(self.fail(&format!("fmi2SetReal: {e}")));
+            Some(sim) if parameters_changed || inputs_changed => {
+                // Applied to a copy first: a refused change leaves the run as it was.
+                let mut updated = sim.clone();
+                let model_applied = if parameters_changed {
+                    Model::build(&scene).map_err(|e| e.to_string()).and_then(|m| updated.set_model(m).map_err(|e| e.to_string()))
+                } else {
+                    Ok(())
+                };
+                if let Err(e) = model_applied.and_then(|()| updated.set_inputs(&inputs).map_err(|e| e.to_string())) {
+                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                }
+                let events = updated.drain_events();
+                *sim = updated;
+                self.log_events(&events);
             }
-            let events = sim.drain_events();
-            self.log_events(&events);
+            _ => {}
         }
-        if parameters_changed || inputs != self.inputs {
+        if parameters_changed || inputs_changed {
             self.provisional = None;
         }
         self.scene = scene;
