@@ -184,6 +184,7 @@ pub struct Input {
     pub name: String,
     pub description: String,
     pub unit: Unit,
+    pub range: Range,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -246,18 +247,124 @@ fn span(scene: &Scene, stop: bool) -> Range {
     }
 }
 
+/// The honest ranges of a scene's values, from its structure alone (never
+/// from a parameter, so they are fixed when the FMU is packaged). The model
+/// is linear and exact at any amplitude, but its rounding is relative to
+/// the largest quantity in play: beyond these limits a millimetre gap would
+/// drown in the rounding of the deflection (a force of 1e150 N would pass
+/// through the stop) or the event search would have to resolve a load far
+/// faster than every mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Largest displacement: 1000 times the beam's length (1 in scaled units).
+    pub displacement: f64,
+    /// Lowest natural frequency, from below (the cantilever's 1.875^2 c for
+    /// beams, `2 sqrt(k/m) sin(pi / (4 N + 2))` for the chain).
+    pub omega_low: f64,
+    /// Highest natural frequency, from above (`((N + 1) pi)^2 c` for beams,
+    /// `2 sqrt(k / m)` for the chain).
+    pub omega_high: f64,
+    /// The mass moved by a point force (the beam's or one mass of the chain).
+    pub mass: f64,
+    /// Mass per unit length (beams; 1 for chains).
+    pub mass_per_length: f64,
+}
+
+/// Largest modal damping ratio (heavily over-damped modes stay exact, but
+/// beyond this nothing moves within any useful horizon).
+pub const MAX_ZETA: f64 = 1e3;
+/// The fastest load, relative to the highest natural frequency.
+pub const MAX_LOAD_FREQUENCY_RATIO: f64 = 1e3;
+/// The largest displacement, relative to the structure's length.
+pub const MAX_DISPLACEMENT_RATIO: f64 = 1e3;
+
+impl Limits {
+    pub fn of(scene: &Scene) -> Limits {
+        match (&scene.structure, scene.section().ok().flatten()) {
+            (crate::scene::StructureSpec::Chain { masses, m, k, .. }, _) => {
+                let w = 2.0 * (k / m).sqrt();
+                Limits {
+                    displacement: MAX_DISPLACEMENT_RATIO,
+                    omega_low: w * (std::f64::consts::PI / (4.0 * *masses as f64 + 2.0)).sin(),
+                    omega_high: w,
+                    mass: *m,
+                    mass_per_length: 1.0,
+                }
+            }
+            (_, section) => {
+                let s = section.unwrap_or(crate::scene::Section { length: 1.0, mass_per_length: 1.0, bending_stiffness: 1.0 });
+                let c = (s.bending_stiffness / (s.mass_per_length * s.length.powi(4))).sqrt();
+                let n = scene.n_modes() as f64;
+                Limits {
+                    displacement: MAX_DISPLACEMENT_RATIO * s.length,
+                    omega_low: 1.875f64.powi(2) * c,
+                    omega_high: ((n + 1.0) * std::f64::consts::PI).powi(2) * c,
+                    mass: s.mass_per_length * s.length,
+                    mass_per_length: s.mass_per_length,
+                }
+            }
+        }
+    }
+
+    /// Displacements, gaps, initial modal displacements.
+    pub fn displacement_range(&self) -> Range {
+        Range::closed(-self.displacement, self.displacement)
+    }
+
+    /// Initial modal velocities: an amplitude of at most the displacement
+    /// limit in the slowest mode.
+    pub fn velocity_range(&self) -> Range {
+        let v = self.displacement * self.omega_low;
+        Range::closed(-v, v)
+    }
+
+    /// Accelerations (base excitation): a static deflection of at most the
+    /// displacement limit in the slowest mode.
+    pub fn acceleration(&self) -> f64 {
+        self.displacement * self.omega_low * self.omega_low
+    }
+
+    /// Load amplitudes and input forces of each kind.
+    pub fn force_range(&self, per_length: bool) -> Range {
+        let f = self.acceleration() * if per_length { self.mass_per_length } else { self.mass };
+        Range::closed(-f, f)
+    }
+
+    pub fn acceleration_range(&self) -> Range {
+        Range::closed(-self.acceleration(), self.acceleration())
+    }
+
+    pub fn load_frequency_range(&self) -> Range {
+        Range::closed(0.0, MAX_LOAD_FREQUENCY_RATIO * self.omega_high)
+    }
+
+    pub fn zeta_range(&self) -> Range {
+        Range::closed(0.0, MAX_ZETA)
+    }
+
+    /// Viscous damping per length giving at most `MAX_ZETA` in the slowest mode.
+    pub fn viscous_range(&self) -> Range {
+        Range::closed(0.0, 2.0 * MAX_ZETA * self.mass_per_length * self.omega_low)
+    }
+}
+
 /// Every parameter of the scene, in a stable order.
 pub fn parameters(scene: &Scene) -> Vec<Parameter> {
+    let limits = Limits::of(scene);
     let mut out = Vec::new();
     let mut push = |key, name, scene_path: String, description: String, u, range, tunable| {
         out.push(Parameter { key, name, scene_path, description, unit: unit(scene, u), range, tunable });
     };
     let beam = scene.is_beam();
     for (i, load) in scene.loads.iter().enumerate() {
-        let (name, names, kind, amplitude_unit) = match load {
-            Load::DistributedHarmonic { name, names, .. } => (name, names, "distributed load (per unit length)", Unit::NewtonPerMetre),
-            Load::PointHarmonic { name, names, .. } => (name, names, "point force", Unit::Newton),
-            Load::BaseExcitation { name, names, .. } => (name, names, "base acceleration", Unit::MetrePerSecond2),
+        let (name, names, kind, amplitude_unit, amplitude_range) = match load {
+            Load::DistributedHarmonic { name, names, .. } => {
+                (name, names, "distributed load (per unit length)", Unit::NewtonPerMetre, limits.force_range(true))
+            }
+            Load::PointHarmonic { name, names, .. } => (name, names, "point force", Unit::Newton, limits.force_range(false)),
+            Load::BaseExcitation { name, names, .. } => {
+                (name, names, "base acceleration", Unit::MetrePerSecond2, limits.acceleration_range())
+            }
         };
         push(
             ParamKey::LoadAmplitude(i),
@@ -265,7 +372,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
             format!("loads[{i}].amplitude"),
             format!("Amplitude of the harmonic {kind} '{name}'"),
             amplitude_unit,
-            Range::ANY,
+            amplitude_range,
             true,
         );
         push(
@@ -274,7 +381,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
             format!("loads[{i}].omega"),
             format!("Circular frequency of the load '{name}'"),
             Unit::RadianPerSecond,
-            Range::NON_NEGATIVE,
+            limits.load_frequency_range(),
             true,
         );
         if beam && matches!(load, Load::PointHarmonic { .. }) {
@@ -291,7 +398,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
     }
     if let Some(d) = &scene.damping {
         if d.zeta.is_some() {
-            push(ParamKey::Zeta, named(&d.names, "", "zeta"), "damping.zeta".into(), "Modal damping ratio of every mode".into(), Unit::One, Range::NON_NEGATIVE, false);
+            push(ParamKey::Zeta, named(&d.names, "", "zeta"), "damping.zeta".into(), "Modal damping ratio of every mode".into(), Unit::One, limits.zeta_range(), false);
         }
         if let Some(z) = &d.zeta_modes {
             for j in 0..z.len() {
@@ -301,7 +408,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
                     format!("damping.zeta_modes[{j}]"),
                     format!("Damping ratio of mode {}", j + 1),
                     Unit::One,
-                    Range::NON_NEGATIVE,
+                    limits.zeta_range(),
                     false,
                 );
             }
@@ -313,7 +420,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
                 "damping.viscous".into(),
                 "Viscous damping per unit length (zeta_j = c / (2 rho A omega_j))".into(),
                 Unit::NewtonSecondPerMetre2,
-                Range::NON_NEGATIVE,
+                limits.viscous_range(),
                 false,
             );
         }
@@ -342,7 +449,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
             format!("stops[{i}].gap"),
             format!("Clearance between the undeformed structure and stop '{s}' (negative: preload)"),
             Unit::Metre,
-            Range::ANY,
+            limits.displacement_range(),
             false,
         );
         if beam {
@@ -369,25 +476,34 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
         }
     }
     for j in 0..scene.n_modes() {
-        push(ParamKey::InitialQ(j), mode_name(&scene.names, "q0", "q0[{j}]", j), format!("initial.q[{j}]"), format!("Initial modal displacement of mode {}", j + 1), Unit::Metre, Range::ANY, false);
+        push(ParamKey::InitialQ(j), mode_name(&scene.names, "q0", "q0[{j}]", j), format!("initial.q[{j}]"), format!("Initial modal displacement of mode {}", j + 1), Unit::Metre, limits.displacement_range(), false);
     }
     for j in 0..scene.n_modes() {
-        push(ParamKey::InitialQd(j), mode_name(&scene.names, "qd0", "qd0[{j}]", j), format!("initial.qd[{j}]"), format!("Initial modal velocity of mode {}", j + 1), Unit::MetrePerSecond, Range::ANY, false);
+        push(ParamKey::InitialQd(j), mode_name(&scene.names, "qd0", "qd0[{j}]", j), format!("initial.qd[{j}]"), format!("Initial modal velocity of mode {}", j + 1), Unit::MetrePerSecond, limits.velocity_range(), false);
     }
     out
 }
 
 pub fn inputs(scene: &Scene) -> Vec<Input> {
+    let limits = Limits::of(scene);
     scene
         .actuators
         .iter()
         .enumerate()
         .map(|(i, a)| {
-            let (description, u) = match a.kind {
-                ActuatorKind::Force => (format!("Point force '{}' (positive along +w), held constant over each communication step", a.name), Unit::Newton),
-                ActuatorKind::BaseAcceleration => (format!("Acceleration '{}' of the supports (and stops), held constant over each communication step", a.name), Unit::MetrePerSecond2),
+            let (description, u, range) = match a.kind {
+                ActuatorKind::Force => (
+                    format!("Point force '{}' (positive along +w), held constant over each communication step", a.name),
+                    Unit::Newton,
+                    limits.force_range(false),
+                ),
+                ActuatorKind::BaseAcceleration => (
+                    format!("Acceleration '{}' of the supports (and stops), held constant over each communication step", a.name),
+                    Unit::MetrePerSecond2,
+                    limits.acceleration_range(),
+                ),
             };
-            Input { key: InputKey::Actuator(i), name: named(&a.names, "", &a.name), description, unit: unit(scene, u) }
+            Input { key: InputKey::Actuator(i), name: named(&a.names, "", &a.name), description, unit: unit(scene, u), range }
         })
         .collect()
 }

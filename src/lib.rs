@@ -4,6 +4,7 @@
 //! (modal numbers) -> [`sim`] (state and events) -> [`fmi2`] (the C ABI).
 //! Nothing below `fmi2` knows about FMI.
 
+pub mod codec;
 pub mod contact;
 pub mod fmi2;
 pub mod interface;

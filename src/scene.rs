@@ -317,6 +317,11 @@ pub struct Solver {
     /// Events allowed within one communication step before it is discarded.
     #[serde(default = "default_max_events")]
     pub max_events_per_step: u64,
+    /// Points of the event search allowed within one communication step
+    /// (events included) before it is discarded at the time reached; the
+    /// default keeps one step under about a second at any number of modes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_probes_per_step: Option<u64>,
 }
 
 fn default_max_events() -> u64 {
@@ -325,7 +330,7 @@ fn default_max_events() -> u64 {
 
 impl Default for Solver {
     fn default() -> Self {
-        Solver { event_tolerance: 0.0, max_events_per_step: default_max_events() }
+        Solver { event_tolerance: 0.0, max_events_per_step: default_max_events(), max_probes_per_step: None }
     }
 }
 
@@ -639,6 +644,9 @@ impl Scene {
         Range::NON_NEGATIVE.check("solver.event_tolerance", self.solver.event_tolerance).map_err(SceneError)?;
         if self.solver.max_events_per_step == 0 {
             return err("solver.max_events_per_step = 0: allowed range is [1, 2^64)".into());
+        }
+        if self.solver.max_probes_per_step == Some(0) {
+            return err("solver.max_probes_per_step = 0: allowed range is [1, 2^64)".into());
         }
         Ok(())
     }

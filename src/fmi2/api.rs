@@ -6,8 +6,10 @@
 #![allow(non_snake_case)]
 #![allow(clippy::missing_safety_doc)]
 
+use std::cell::{Cell, RefCell};
 use std::ffi::CStr;
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::Once;
 
 use libc::{c_char, size_t};
 
@@ -26,6 +28,48 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
+thread_local! {
+    /// Set while this thread runs inside an FMI call.
+    static IN_CALL: Cell<bool> = const { Cell::new(false) };
+    /// Where the last panic inside an FMI call happened.
+    static PANIC_LOCATION: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+/// A process-wide panic hook, installed once, that keeps panics inside FMI
+/// calls off the host's stderr (a host that pipes stderr without reading it
+/// would block): it only records where the panic happened, and the call's
+/// boundary logs one short message through the instance's logger. Panics
+/// elsewhere in the process go to the hook that was there before.
+fn install_panic_hook() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if IN_CALL.with(Cell::get) {
+                let location = info.location().map(|l| format!("{}:{}", l.file(), l.line()));
+                PANIC_LOCATION.with(|p| *p.borrow_mut() = location);
+            } else {
+                previous(info);
+            }
+        }));
+    });
+}
+
+/// Runs `body` inside the panic boundary; `Err` carries the panic's short message.
+fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
+    install_panic_hook();
+    let outer = IN_CALL.with(|c| c.replace(true));
+    let result = catch_unwind(AssertUnwindSafe(body));
+    IN_CALL.with(|c| c.set(outer));
+    result.map_err(|payload| {
+        let msg = panic_message(payload.as_ref());
+        match PANIC_LOCATION.with(|p| p.borrow_mut().take()) {
+            Some(at) => format!("{msg} (at {at})"),
+            None => msg,
+        }
+    })
+}
+
 /// Runs `body` on the instance behind `c` inside the panic boundary.
 fn call(c: fmi2Component, f: Function, body: impl FnOnce(&mut Instance) -> CallResult) -> fmi2Status {
     if c.is_null() {
@@ -34,11 +78,10 @@ fn call(c: fmi2Component, f: Function, body: impl FnOnce(&mut Instance) -> CallR
     // SAFETY: a non-null component is one fmi2Instantiate returned and
     // fmi2FreeInstance has not freed (the caller's obligation).
     let instance = unsafe { &mut *(c as *mut Instance) };
-    match catch_unwind(AssertUnwindSafe(|| body(&mut *instance))) {
+    match guarded(|| body(&mut *instance)) {
         Ok(Ok(())) => Status::Ok.raw(),
         Ok(Err(status)) => status.raw(),
-        Err(payload) => {
-            let msg = panic_message(payload.as_ref());
+        Err(msg) => {
             instance.poison(&format!("{}: internal error: {msg}", f.name()));
             Status::Error.raw()
         }
@@ -106,7 +149,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
     if functions.logger.is_none() {
         return std::ptr::null_mut();
     }
-    let result = catch_unwind(AssertUnwindSafe(|| -> Result<Instance, (Logger, String)> {
+    let result = guarded(|| -> Result<Instance, (Logger, String)> {
         let name = string(instanceName).unwrap_or_default();
         let logger = Logger::new(functions.logger, functions.componentEnvironment, &name, loggingOn != FMI2_FALSE);
         if name.is_empty() {
@@ -126,7 +169,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             Err(m) => return Err((logger, format!("fmi2Instantiate: {m}"))),
         };
         Instance::new(logger, &guid, &dir)
-    }));
+    });
     match result {
         Ok(Ok(instance)) => Box::into_raw(Box::new(instance)) as fmi2Component,
         Ok(Err((logger, message))) => {
@@ -142,7 +185,7 @@ pub unsafe extern "C" fn fmi2FreeInstance(c: fmi2Component) {
     if c.is_null() {
         return;
     }
-    let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(c as *mut Instance))));
+    let _ = guarded(|| drop(Box::from_raw(c as *mut Instance)));
 }
 
 #[no_mangle]

@@ -45,14 +45,19 @@ pub struct Instance {
     stop_time: Option<f64>,
     sim: Option<Simulation>,
     /// In initialization mode, a simulation built from the current values
-    /// to answer fmi2GetReal on outputs; cleared by any set.
-    provisional: Option<Simulation>,
+    /// to answer fmi2GetReal on outputs, or why it cannot be built (kept so
+    /// that a failure is not recomputed at every read); cleared by any set.
+    provisional: Option<Result<Simulation, String>>,
     last_successful_time: f64,
     terminated: bool,
 }
 
 /// A failed call: the status to return (the message is already logged).
 pub type CallResult<T = ()> = Result<T, Status>;
+
+/// The coarsest time resolution (an ulp of the time), relative to the
+/// shortest natural period, at which steps are still taken.
+pub const MAX_TIME_RESOLUTION: f64 = 1e-6;
 
 impl Instance {
     /// fmi2Instantiate after the pointer checks: reads the scene from the
@@ -172,9 +177,17 @@ impl Instance {
 
     pub fn exit_initialization_mode(&mut self) -> CallResult {
         self.enter(Function::ExitInitializationMode)?;
-        let mut sim = match self.provisional.take() {
-            Some(sim) => sim,
-            None => self.build_simulation().map_err(|m| self.fail(&format!("fmi2ExitInitializationMode: {m}")))?,
+        let built = match self.provisional.take() {
+            Some(result) => result,
+            None => self.build_simulation(),
+        };
+        let mut sim = match built {
+            Ok(sim) => sim,
+            Err(m) => {
+                let status = self.fail(&format!("fmi2ExitInitializationMode: {m}"));
+                self.provisional = Some(Err(m));
+                return Err(status);
+            }
         };
         // Events settled at the start time (an initial impact, sticking).
         let events = sim.drain_events();
@@ -233,12 +246,13 @@ impl Instance {
     fn reading_simulation(&mut self, f: Function) -> CallResult<&Simulation> {
         if self.machine == ModelState::InitializationMode {
             if self.provisional.is_none() {
-                match self.build_simulation() {
-                    Ok(sim) => self.provisional = Some(sim),
-                    Err(m) => return Err(self.fail(&format!("{}: outputs cannot be computed: {m}", f.name()))),
-                }
+                self.provisional = Some(self.build_simulation());
             }
-            return Ok(self.provisional.as_ref().expect("just built"));
+            return match self.provisional.as_ref() {
+                Some(Ok(sim)) => Ok(sim),
+                Some(Err(m)) => Err(self.fail(&format!("{}: outputs cannot be computed: {m}", f.name()))),
+                None => unreachable!("set above"),
+            };
         }
         match self.sim.as_ref() {
             Some(sim) => Ok(sim),
@@ -332,8 +346,9 @@ impl Instance {
                     parameters_changed = true;
                 }
                 Binding::Input(i) => {
-                    if !value.is_finite() {
-                        return Err(self.fail(&format!("fmi2SetReal: input '{}' = {value:?}: must be finite", v.name)));
+                    let input = &self.table.inputs[i];
+                    if let Err(m) = input.range.check(&format!("input '{}'", input.name), *value) {
+                        return Err(self.fail(&format!("fmi2SetReal: {m}")));
                     }
                     inputs[i] = *value;
                 }
@@ -378,7 +393,9 @@ impl Instance {
 
     pub fn do_step(&mut self, t: f64, h: f64) -> CallResult {
         self.enter(Function::DoStep)?;
-        let sim = self.sim.as_mut().expect("a simulation exists in StepComplete");
+        let Some(sim) = self.sim.as_mut() else {
+            return Err(self.fail("fmi2DoStep: no simulation (initialisation did not complete)"));
+        };
         let now = sim.time();
         let tol = 1e-9 * now.abs().max(1.0);
         if !t.is_finite() || (t - now).abs() > tol {
@@ -389,6 +406,20 @@ impl Instance {
             return Err(self.fail(&format!("fmi2DoStep: communicationStepSize = {h}: must be finite and > 0")));
         }
         let target = (t + h).max(now);
+        if target <= now {
+            return Err(self.fail(&format!(
+                "fmi2DoStep: communicationStepSize = {h:e} does not move the time {now} (its resolution there is {:e}); take a longer step",
+                now.abs().max(f64::MIN_POSITIVE) * f64::EPSILON
+            )));
+        }
+        let period = sim.model().shortest_period();
+        let resolution = target.abs() * f64::EPSILON;
+        if resolution > MAX_TIME_RESOLUTION * period {
+            return Err(self.fail(&format!(
+                "fmi2DoStep: t + h = {target}: the time's resolution there ({resolution:e}) exceeds {MAX_TIME_RESOLUTION} of the \
+                 shortest natural period ({period:e}), too coarse to locate impacts; start the experiment nearer t = 0"
+            )));
+        }
         if let Some(stop) = self.stop_time {
             if target > stop + 1e-9 * stop.abs().max(1.0) {
                 return Err(self.fail(&format!("fmi2DoStep: t + h = {target} is past stopTime = {stop} set in fmi2SetupExperiment")));
@@ -403,7 +434,7 @@ impl Instance {
                 self.last_successful_time = target;
                 Ok(())
             }
-            Err(e @ SimError::TooManyEvents { .. }) => {
+            Err(e @ (SimError::TooManyEvents { .. } | SimError::TooMuchWork { .. })) => {
                 self.last_successful_time = reached;
                 self.machine = ModelState::StepFailed;
                 self.logger.status(Status::Discard, &format!("fmi2DoStep: {e}; the step was computed up to t = {reached}"));
@@ -420,7 +451,7 @@ impl Instance {
         if events.is_empty() || !self.logger.wants("logEvents") {
             return;
         }
-        let Some(sim) = self.sim.as_ref().or(self.provisional.as_ref()) else { return };
+        let Some(sim) = self.sim.as_ref().or(self.provisional.as_ref().and_then(|p| p.as_ref().ok())) else { return };
         let stops = &sim.model().stops;
         for e in events {
             let name = |i: usize| stops[i].name.as_str();

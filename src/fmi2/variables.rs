@@ -98,14 +98,14 @@ impl VariableTable {
             variables.push(Variable {
                 vr: variables.len() as u32,
                 name: input.name.clone(),
-                description: input.description.clone(),
+                description: format!("{} (allowed {})", input.description, input.range),
                 unit: input.unit,
                 ty: VarType::Real,
                 causality: Causality::Input,
                 variability: Variability::Continuous,
                 start: Some(0.0),
-                min: None,
-                max: None,
+                min: finite(input.range.min),
+                max: finite(input.range.max),
                 binding: Binding::Input(i),
             });
         }

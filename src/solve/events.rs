@@ -35,15 +35,23 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     let [mut h, mut h1, h2, h3] = jet.d;
     let [m2, m3, m4] = bounds.m;
     let tau_max = bounds.tau;
-    if h <= jet.noise[0] {
+    let noise = |m: usize| jet.noise[m].max(bounds.floor[m]);
+    if h <= jet.noise[0] || (h <= bounds.floor[0] && h1.abs() <= noise(1)) {
+        // At zero within rounding, or a value and slope below the level the
+        // bounds can resolve (a load a hundred orders of magnitude below the
+        // scene's scale): the event is here, or, departing, the boundary.
         if !departing {
             return Certified::AtZero;
         }
         h = 0.0;
-        if h1.abs() <= jet.noise[1] {
+        if h1.abs() <= noise(1) {
             h1 = 0.0;
         }
     }
+    // Derivatives below the bounds' own rounding level carry no direction.
+    let below_floor = |m: usize, v: f64| bounds.floor[m] > jet.noise[m] && v.abs() <= bounds.floor[m];
+    let h2 = if below_floor(2, h2) { 0.0 } else { h2 };
+    let h3 = if below_floor(3, h3) { 0.0 } else { h3 };
     let mut best = 0.0f64;
     // Quadratic bound: h + h1 s - m2 s^2 / 2 > 0.
     if h > 0.0 || h1 > 0.0 {
@@ -98,6 +106,16 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
             }
         }
     }
+    if departing && h == 0.0 && h1 == 0.0 && h2.abs() <= jet.noise[2] && h3.abs() <= jet.noise[3] {
+        // Resting on the boundary: every visible derivative is rounding (a
+        // structure at rest on its stop under no load, a reaction that is
+        // identically zero). `h >= -m4 s^4 / 24`, and a dip no deeper than
+        // the rounding level is the boundary itself; with `m4 = 0` the
+        // function stays on the boundary over the whole interval.
+        let level = jet.slack.max(jet.noise[0]).max(bounds.floor[0]);
+        let s = if m4 > 0.0 { (24.0 * level / m4).sqrt().sqrt() } else { f64::INFINITY };
+        best = best.max(s);
+    }
     if h > 0.0 && best == 0.0 {
         // h > 0 but no certificate (cannot happen with finite bounds): go slowly.
         best = f64::MIN_POSITIVE;
@@ -113,6 +131,9 @@ pub enum Tendency {
     Closing,
     /// `h` will become positive: the contact opens.
     Opening,
+    /// `h` and every derivative we can see vanish: nothing moves the
+    /// contact either way (at rest on the stop under no load).
+    Resting,
 }
 
 pub fn tendency_from(jet: &Jet, first: usize) -> Tendency {
@@ -124,8 +145,8 @@ pub fn tendency_from(jet: &Jet, first: usize) -> Tendency {
             return Tendency::Opening;
         }
     }
-    // Identically zero to every order we can see: nothing pushes it open.
-    Tendency::Closing
+    // Identically zero to every order we can see: nothing moves it.
+    Tendency::Resting
 }
 
 #[cfg(test)]
@@ -139,7 +160,7 @@ mod tests {
     #[test]
     fn quadratic_step_stops_short_of_a_zero() {
         // h = 1 - s^2 / 2 (h'' = -1, |h''| <= 1): first zero at sqrt 2.
-        let b = DerivativeBounds { tau: 10.0, m: [1.0, 0.0, 0.0] };
+        let b = DerivativeBounds { tau: 10.0, m: [1.0, 0.0, 0.0], floor: [0.0; 4] };
         match certified_step(&jet([1.0, 0.0, -1.0, 0.0]), &b, false) {
             Certified::Clear(s) => assert!((s - 2f64.sqrt()).abs() < 1e-15),
             other => panic!("{other:?}"),
@@ -151,12 +172,12 @@ mod tests {
         // h'' = 1, h''' = 0 and |h'''|, |h''''| <= 1: the cubic bound
         // s^2 / 2 - s^3 / 6 certifies s < 3, the quartic s^2 / 2 - s^4 / 24
         // certifies s < sqrt(12); the larger one is taken.
-        let b = DerivativeBounds { tau: 10.0, m: [1.0, 1.0, 1.0] };
+        let b = DerivativeBounds { tau: 10.0, m: [1.0, 1.0, 1.0], floor: [0.0; 4] };
         match certified_step(&jet([0.0, 0.0, 1.0, 0.0]), &b, true) {
             Certified::Clear(s) => assert!((s - 12f64.sqrt()).abs() < 1e-12, "{s}"),
             other => panic!("{other:?}"),
         }
-        let b = DerivativeBounds { tau: 10.0, m: [1.0, 1.0, 1e9] };
+        let b = DerivativeBounds { tau: 10.0, m: [1.0, 1.0, 1e9], floor: [0.0; 4] };
         match certified_step(&jet([0.0, 0.0, 1.0, 0.0]), &b, true) {
             Certified::Clear(s) => assert!((s - 3.0).abs() < 1e-12, "{s}"),
             other => panic!("{other:?}"),
@@ -168,5 +189,23 @@ mod tests {
     fn tendency_reads_the_first_significant_derivative() {
         assert_eq!(tendency_from(&jet([0.0, 0.0, -2.0, 5.0]), 2), Tendency::Closing);
         assert_eq!(tendency_from(&jet([0.0, 0.0, 0.0, 5.0]), 2), Tendency::Opening);
+        assert_eq!(tendency_from(&jet([0.0, 0.0, 1e-17, -1e-17]), 2), Tendency::Resting);
+    }
+
+    #[test]
+    fn a_function_resting_on_its_boundary_is_certified() {
+        // h = 0 to every visible order, departing: with no bound on h''''
+        // it stays on the boundary for the whole interval; with |h''''| <= M
+        // a dip of -M s^4 / 24 is rounding while it stays within the noise.
+        let zero = Jet { d: [0.0; 4], noise: [0.0; 4], slack: 0.0 };
+        let b = DerivativeBounds { tau: 10.0, m: [0.0, 0.0, 0.0], floor: [0.0; 4] };
+        assert_eq!(certified_step(&zero, &b, true), Certified::Clear(10.0));
+        assert_eq!(certified_step(&zero, &b, false), Certified::AtZero);
+        let noisy = Jet { d: [0.0; 4], noise: [1e-16; 4], slack: 1e-16 };
+        let b = DerivativeBounds { tau: 10.0, m: [1.0, 1.0, 24.0], floor: [0.0; 4] };
+        match certified_step(&noisy, &b, true) {
+            Certified::Clear(s) => assert!((s - 1e-4).abs() < 1e-12, "{s}"),
+            other => panic!("{other:?}"),
+        }
     }
 }

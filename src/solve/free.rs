@@ -340,7 +340,7 @@ impl ModalBounds {
     }
 
     pub fn functional(&self, h: &Functional, tau: f64) -> DerivativeBounds {
-        let mut out = DerivativeBounds { tau, m: [0.0; 3] };
+        let mut out = DerivativeBounds { tau, m: [0.0; 3], floor: [0.0; 4] };
         for (k, m) in (2..5).enumerate() {
             let mut s = h.q.iter().zip(self.b[m].iter()).map(|(a, b)| a.abs() * b).sum::<f64>();
             if let Some(bq) = &h.qd {

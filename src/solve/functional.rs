@@ -73,6 +73,10 @@ impl Jet {
 pub struct DerivativeBounds {
     pub tau: f64,
     pub m: [f64; 3],
+    /// The rounding levels of `h, h', h'', h'''` that the bounds themselves
+    /// allow for (0 where they are built from the exact state): values below
+    /// them are no evidence of a direction.
+    pub floor: [f64; 4],
 }
 
 /// Relative size of the rounding noise assumed on every evaluated quantity.

@@ -333,7 +333,7 @@ impl CoupledSegment {
     /// known exactly, plus a remainder `r' = L r + g_res` with `Re L <= 0`:
     /// `|r| <= |r(t)| + tau max|g_res|` and
     /// `r^(m) = L^m r + sum_i L^(m-1-i) g_res^(i)`.
-    pub fn coordinate_bounds(&self, sys: &CoupledSystem, sample: &CoupledSample, tau: f64) -> Vec<[f64; 3]> {
+    pub fn coordinate_bounds(&self, sys: &CoupledSystem, sample: &CoupledSample, tau: f64) -> Vec<[f64; 7]> {
         let t = sample.t;
         let rotations: Vec<C64> = self.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t)).collect();
         (0..sample.z.len())
@@ -372,7 +372,7 @@ impl CoupledSegment {
                 }
                 let growth = (sys.eig[k].re.max(0.0) * tau).exp();
                 let r = growth * ((sample.z[k] - zp).norm() + NOISE * size + resonant[0] * tau);
-                let mut out = [0.0; 3];
+                let mut out = [0.0; 7];
                 for (slot, m) in (2..5).enumerate() {
                     let mut b = l.powi(m as i32) * r;
                     for i in 0..m {
@@ -380,23 +380,34 @@ impl CoupledSegment {
                     }
                     out[slot] = b + steady[m];
                 }
+                // The rounding level these bounds carry for the coordinate
+                // and its first three derivatives.
+                for m in 0..4 {
+                    out[3 + m] = growth * NOISE * size * l.powi(m as i32);
+                }
                 out
             })
             .collect()
     }
 
     /// Bounds on `|h''|, |h'''|, |h''''|` over `[t, t + tau]`.
-    pub fn bounds(&self, forcing: &ModalForcing, p: &ProjectedFunctional, coords: &[[f64; 3]], tau: f64) -> DerivativeBounds {
-        let mut out = DerivativeBounds { tau, m: [0.0; 3] };
+    pub fn bounds(&self, forcing: &ModalForcing, p: &ProjectedFunctional, coords: &[[f64; 7]], tau: f64) -> DerivativeBounds {
+        let mut out = DerivativeBounds { tau, m: [0.0; 3], floor: [0.0; 4] };
         for (c, b) in p.c.iter().zip(coords) {
             let c = c.norm();
             for slot in 0..3 {
                 out.m[slot] += c * b[slot];
             }
+            for m in 0..4 {
+                out.floor[m] += c * b[3 + m];
+            }
         }
         if let Some(cf) = &p.f {
             for (slot, m) in (2..5).enumerate() {
                 out.m[slot] += cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum::<f64>();
+            }
+            for m in 0..4 {
+                out.floor[m] += NOISE * cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum::<f64>();
             }
         }
         out

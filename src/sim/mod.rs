@@ -12,6 +12,10 @@ use std::sync::Arc;
 
 use nalgebra::DVector;
 
+mod codec;
+
+pub use codec::STATE_VERSION;
+
 use crate::contact::restitution::{apply_impact, energy_loss, ImpactRow};
 use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
@@ -46,6 +50,10 @@ pub enum SimError {
     Penetration { stop: String, displacement: f64, limit: f64, side: f64 },
     /// More events than allowed inside one call to `advance_to`.
     TooManyEvents { time: f64, count: u64 },
+    /// More event-search points than allowed inside one call to
+    /// `advance_to` (events are rare but the search is slow: a very fast
+    /// load, an extremely long step).
+    TooMuchWork { time: f64, probes: u64 },
     /// A contact phase could not be set up.
     Contact(LtiError),
     /// A requested time lies before the current one.
@@ -64,6 +72,11 @@ impl fmt::Display for SimError {
             SimError::TooManyEvents { time, count } => write!(
                 f,
                 "{count} events within one step near t = {time}: raise solver.max_events_per_step or the chatter threshold eps"
+            ),
+            SimError::TooMuchWork { time, probes } => write!(
+                f,
+                "{probes} event-search points within one step, stopped at t = {time}: take shorter communication steps \
+                 or raise solver.max_probes_per_step"
             ),
             SimError::Contact(e) => write!(f, "{e}"),
             SimError::Backwards { now, requested } => {
@@ -533,12 +546,27 @@ impl Simulation {
         result
     }
 
+    /// Stops consistently at `l`, the last point the search reached.
+    fn stop_at(&mut self, l: f64) {
+        self.accumulate_balance(l);
+        self.state.time = l;
+        let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
+        self.state_at(l, &mut current);
+        self.state.current = current;
+    }
+
     fn scan_to(&mut self, t_end: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Result<(), SimError> {
         let mut count = 0u64;
+        let mut probes = 0u64;
         loop {
             let l = self.state.scan;
             if l > t_end {
                 break;
+            }
+            probes += 1;
+            if probes > self.model.max_probes_per_step {
+                self.stop_at(l);
+                return Err(SimError::TooMuchWork { time: l, probes: probes - 1 });
             }
             self.stats.probes += 1;
             let at_zero = match self.probe(l, st, buffers) {
@@ -565,12 +593,7 @@ impl Simulation {
             count += 1;
             self.stats.events += 1;
             if count > self.model.max_events_per_step {
-                // Stop consistently at the last point reached.
-                self.accumulate_balance(l);
-                self.state.time = l;
-                let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
-                self.state_at(l, &mut current);
-                self.state.current = current;
+                self.stop_at(l);
                 return Err(SimError::TooManyEvents { time: l, count });
             }
             self.handle_events(l, st.clone(), at_zero)?;
@@ -600,6 +623,7 @@ impl Simulation {
             if self.state.stuck & bit(i) != 0 {
                 // The reaction already pulls (after a change of load), or is
                 // about to: release.
+                // A reaction resting at zero (no load) keeps the structure held.
                 if jet.d[0] < -jet.noise[0] || tendency_from(&jet, 1) == Tendency::Closing {
                     releases.push(i);
                 } else {
@@ -609,7 +633,9 @@ impl Simulation {
                 impacts.push((i, -jet.d[1]));
             } else if jet.d[1] <= jet.noise[1] {
                 match tendency_from(&jet, 2) {
-                    Tendency::Closing => sticks.push(i),
+                    // At rest on the stop with nothing pushing either way: held
+                    // with zero reaction until a load decides.
+                    Tendency::Closing | Tendency::Resting => sticks.push(i),
                     Tendency::Opening => {
                         departing |= bit(i);
                         self.record(t, EventKind::Graze { stop: i });
@@ -683,7 +709,7 @@ impl Simulation {
         jet_buf.fill_free(&self.dynamics, t, &st);
         for &i in &chatter_ends {
             let jet = jet_buf.functional(&self.gap_functionals[i], t);
-            if tendency_from(&jet, 2) == Tendency::Closing {
+            if tendency_from(&jet, 2) != Tendency::Opening {
                 stuck |= bit(i);
             }
         }

@@ -1,0 +1,238 @@
+//! The simulation's own versioned encoding of its state, and the decoder
+//! that accepts only states the model can be in: finite numbers, times in
+//! order, contact flags that name existing stops and agree with the
+//! geometry (stuck means on the stop, at rest along it, with a reaction
+//! that pushes; a stop the search treats as "departing" must not be
+//! pressed into), and a current state that lies on the restored segment.
+//! A state that fails any check is refused with a message naming the field.
+
+use crate::codec::{Reader, Writer};
+use crate::model::Model;
+use crate::solve::events::{tendency_from, Tendency};
+use crate::solve::free::ModalJet;
+use crate::solve::functional::NOISE;
+use crate::solve::ModalState;
+
+use super::{bit, EnergyBalance, SimState, Simulation, StopState};
+
+/// Version of the encoding below; bump on any change.
+pub const STATE_VERSION: u32 = 1;
+
+impl Simulation {
+    /// Appends the state (not the model or the inputs: the caller stores
+    /// what they are built from).
+    pub fn encode(&self, w: &mut Writer) {
+        let st = &self.state;
+        w.u32(STATE_VERSION);
+        w.u32(st.anchor.q.len() as u32);
+        w.u32(st.stops.len() as u32);
+        w.f64(st.time);
+        w.f64(st.anchor_time);
+        w.modal(&st.anchor);
+        w.u64(st.stuck);
+        w.f64(st.scan);
+        w.u64(st.departing);
+        for stop in &st.stops {
+            w.u64(stop.impacts);
+            w.f64(stop.last_impact);
+            w.opt_f64(stop.previous_impact);
+        }
+        w.modal(&st.current);
+        match &st.balance {
+            None => w.u8(0),
+            Some(b) => {
+                w.u8(1);
+                w.f64s(&b.forcing);
+                w.f64s(&b.damping);
+                w.f64(b.impacts);
+                w.f64(b.time);
+            }
+        }
+    }
+
+    /// Reads a state written by [`Self::encode`] for `model` and validates it.
+    pub fn decode(model: Model, inputs: Vec<f64>, r: &mut Reader) -> Result<Simulation, String> {
+        let version = r.u32()?;
+        if version != STATE_VERSION {
+            return Err(format!("simulation state version {version}; this build reads version {STATE_VERSION}"));
+        }
+        let n = r.u32()? as usize;
+        let n_stops = r.u32()? as usize;
+        if n != model.n_modes() || n_stops != model.stops.len() {
+            return Err(format!(
+                "simulation state has {n} modes and {n_stops} stops, the model {} and {}",
+                model.n_modes(),
+                model.stops.len()
+            ));
+        }
+        let time = r.f64()?;
+        let anchor_time = r.f64()?;
+        let anchor = r.modal(n)?;
+        let stuck = r.u64()?;
+        let scan = r.f64()?;
+        let departing = r.u64()?;
+        let stops = (0..n_stops)
+            .map(|_| Ok(StopState { impacts: r.u64()?, last_impact: r.f64()?, previous_impact: r.opt_f64()? }))
+            .collect::<Result<Vec<_>, String>>()?;
+        let current = r.modal(n)?;
+        let balance = if r.u8()? == 0 {
+            None
+        } else {
+            Some(EnergyBalance {
+                forcing: r.f64s(n, "forcing energies")?,
+                damping: r.f64s(n, "damping energies")?,
+                impacts: r.f64()?,
+                time: r.f64()?,
+            })
+        };
+        if balance.is_some() != model.energy_balance {
+            return Err("simulation state and model disagree on the energy balance".into());
+        }
+        let state = SimState { time, anchor_time, anchor, stuck, scan, departing, stops, current, balance };
+        Simulation::restore_checked(model, inputs, state)
+    }
+
+    /// [`Simulation::restore`] for a state from outside (a file, another
+    /// process): refused, with a message naming the field, unless the model
+    /// can be in it.
+    pub fn restore_checked(model: Model, inputs: Vec<f64>, state: SimState) -> Result<Simulation, String> {
+        if state.anchor.q.len() != model.n_modes() || state.stops.len() != model.stops.len() {
+            return Err("simulation state does not match the model's modes and stops".into());
+        }
+        if state.balance.as_ref().is_some_and(|b| b.forcing.len() != model.n_modes() || b.damping.len() != model.n_modes()) {
+            return Err("simulation state: energy balance does not match the model's modes".into());
+        }
+        check_numbers(&state, model.stops.len())?;
+        let sim = Simulation::restore(model, inputs, state).map_err(|e| e.to_string())?;
+        check_geometry(&sim)?;
+        Ok(sim)
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("simulation state: {field} = {v}: must be finite"))
+    }
+}
+
+fn finite_modal(field: &str, m: &ModalState) -> Result<(), String> {
+    for (j, (q, qd)) in m.q.iter().zip(m.qd.iter()).enumerate() {
+        finite(&format!("{field}.q[{}]", j + 1), *q)?;
+        finite(&format!("{field}.qd[{}]", j + 1), *qd)?;
+    }
+    Ok(())
+}
+
+/// Finite numbers, times in order, flags naming existing stops.
+fn check_numbers(st: &SimState, n_stops: usize) -> Result<(), String> {
+    finite("time", st.time)?;
+    finite("anchor time", st.anchor_time)?;
+    finite("search position", st.scan)?;
+    finite_modal("anchor", &st.anchor)?;
+    finite_modal("current", &st.current)?;
+    if !(st.anchor_time <= st.time && st.time <= st.scan) {
+        return Err(format!(
+            "simulation state: times out of order: anchor {} <= time {} <= search position {} must hold",
+            st.anchor_time, st.time, st.scan
+        ));
+    }
+    let all = if n_stops >= 64 { u64::MAX } else { (1u64 << n_stops) - 1 };
+    for (name, mask) in [("stuck", st.stuck), ("departing", st.departing)] {
+        if mask & !all != 0 {
+            return Err(format!("simulation state: {name} flags {mask:#x} name a stop that does not exist ({n_stops} stops)"));
+        }
+    }
+    for (i, s) in st.stops.iter().enumerate() {
+        finite(&format!("stops[{i}].last impact"), s.last_impact)?;
+        if s.last_impact > st.time {
+            return Err(format!("simulation state: stops[{i}].last impact = {} lies after the time {}", s.last_impact, st.time));
+        }
+        if let Some(p) = s.previous_impact {
+            finite(&format!("stops[{i}].previous impact"), p)?;
+            if p > st.time {
+                return Err(format!("simulation state: stops[{i}].previous impact = {p} lies after the time {}", st.time));
+            }
+        }
+    }
+    if let Some(b) = &st.balance {
+        for (j, (f, d)) in b.forcing.iter().zip(&b.damping).enumerate() {
+            finite(&format!("FE[{}]", j + 1), *f)?;
+            finite(&format!("DE[{}]", j + 1), *d)?;
+        }
+        finite("impact energy", b.impacts)?;
+        finite("energy balance time", b.time)?;
+        if !(st.anchor_time <= b.time && b.time <= st.time) {
+            return Err(format!(
+                "simulation state: energy balance time {} outside [anchor {}, time {}]",
+                b.time, st.anchor_time, st.time
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The state agrees with the stops and with its own segment.
+fn check_geometry(sim: &Simulation) -> Result<(), String> {
+    let st = &sim.state;
+    let model = &sim.model;
+    let tol = model.event_tolerance;
+    let mut jets = ModalJet::new(model.n_modes());
+    jets.fill_free(&sim.dynamics, st.time, &st.current);
+    for (i, stop) in model.stops.iter().enumerate() {
+        let g = &sim.gap_functionals[i];
+        let jet = jets.functional(g, st.time);
+        let size = stop.gap.abs() + stop.w.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        let vsize = stop.w.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        let level = (NOISE * size).max(tol);
+        let name = &stop.name;
+        if jet.d[0] < -level {
+            return Err(format!("simulation state: stop '{name}' is penetrated by {:e} (allowed {level:e})", -jet.d[0]));
+        }
+        if st.stuck & bit(i) != 0 {
+            if jet.d[0].abs() > level || jet.d[1].abs() > NOISE * vsize.max(f64::MIN_POSITIVE) * 1e3 {
+                return Err(format!(
+                    "simulation state: stuck to stop '{name}' but {:e} away from it moving at {:e} along it",
+                    jet.d[0], jet.d[1]
+                ));
+            }
+            let pushes = -stop.side * sim.reaction(i);
+            if pushes < -1e-9 * (1.0 + pushes.abs()) {
+                return Err(format!("simulation state: stuck to stop '{name}' with a pulling reaction {}", sim.reaction(i)));
+            }
+        } else if st.departing & bit(i) != 0 && jet.d[0] <= level {
+            // On the stop and treated as leaving it: it must not be pressed in.
+            let closing = jet.d[1] < -jet.noise[1].max(NOISE * vsize) || (jet.d[1] <= jet.noise[1] && tendency_from(&jet, 2) == Tendency::Closing);
+            if closing {
+                return Err(format!(
+                    "simulation state: on stop '{name}', pressed into it (velocity {:e}, acceleration {:e}) but neither stuck nor impacting",
+                    jet.d[1], jet.d[2]
+                ));
+            }
+        }
+    }
+    // The current state lies on the segment from the anchor.
+    let mut on_segment = ModalState::zeros(model.n_modes());
+    sim.state_at(st.time, &mut on_segment);
+    let scale = st.current.q.amax().max(on_segment.q.amax()) + st.current.qd.amax().max(on_segment.qd.amax());
+    let off = (&st.current.q - &on_segment.q).amax().max((&st.current.qd - &on_segment.qd).amax());
+    if off > 1e-9 * scale.max(f64::MIN_POSITIVE) {
+        return Err(format!(
+            "simulation state: the current state is {off:e} away from the motion its anchor gives at t = {} (scale {scale:e})",
+            st.time
+        ));
+    }
+    // The current state lies on the segment from the anchor.
+    let mut on_segment = ModalState::zeros(model.n_modes());
+    sim.state_at(st.time, &mut on_segment);
+    let scale = st.current.q.amax().max(on_segment.q.amax()) + st.current.qd.amax().max(on_segment.qd.amax());
+    let off = (&st.current.q - &on_segment.q).amax().max((&st.current.qd - &on_segment.qd).amax());
+    if off > 1e-9 * scale.max(f64::MIN_POSITIVE) {
+        return Err(format!(
+            "simulation state: the current state is {off:e} away from the motion its anchor gives at t = {} (scale {scale:e})",
+            st.time
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,186 @@
+//! Robustness: degenerate states that must start and stay at rest, work
+//! that must stay bounded, and restored states that must be ones the model
+//! can be in. Each case compares with what the physics says (a structure at
+//! rest under no load stays exactly at rest) or checks a promise (a bounded
+//! number of search points, a refused corrupted state).
+
+mod common;
+
+use beamstop::interface::ParamKey;
+use beamstop::sim::SimState;
+use beamstop::{EventKind, Model, Scene, SimError, Simulation};
+
+fn with(mut scene: Scene, values: &[(ParamKey, f64)]) -> Scene {
+    for (k, v) in values {
+        k.set(&mut scene, *v);
+    }
+    scene
+}
+
+fn start(scene: &Scene) -> Simulation {
+    Simulation::new(Model::build(scene).unwrap(), 0.0).unwrap_or_else(|e| panic!("start: {e}"))
+}
+
+/// At rest on the stop (gap 0) under each kind of "no load": the state
+/// stays exactly zero, the reaction zero, and the run costs a handful of
+/// search points, not a million events.
+#[test]
+fn at_rest_on_the_stop_stays_at_rest() {
+    let pinned = common::scene("pinned_beam");
+    let cases = [
+        ("F = 0", vec![(ParamKey::LoadAmplitude(0), 0.0)]),
+        ("omega = 0 (sin load)", vec![(ParamKey::LoadOmega(0), 0.0)]),
+        ("F = 0, zeta = 0", vec![(ParamKey::LoadAmplitude(0), 0.0), (ParamKey::Zeta, 0.0)]),
+        ("omega = 0, zeta = 0", vec![(ParamKey::LoadOmega(0), 0.0), (ParamKey::Zeta, 0.0)]),
+    ];
+    for (label, values) in cases {
+        let mut sim = start(&with(pinned.clone(), &values));
+        for k in 1..=100 {
+            sim.advance_to(k as f64).unwrap_or_else(|e| panic!("{label}: {e}"));
+        }
+        let c = sim.current();
+        assert!(c.q.iter().chain(c.qd.iter()).all(|x| *x == 0.0), "{label}: moved: {c:?}");
+        assert_eq!(sim.reaction(0), 0.0, "{label}");
+        assert!(sim.stats().probes < 10_000, "{label}: {} search points for 100 time units at rest", sim.stats().probes);
+        let events: Vec<_> = sim.drain_events();
+        assert!(events.iter().all(|e| !matches!(e.kind, EventKind::Impact { .. })), "{label}: impacts at rest: {events:?}");
+    }
+}
+
+/// A load a hundred orders of magnitude below the scene's scale (omega =
+/// 1e-100) is a static zero load for any horizon: the beam stays on the
+/// stop, and stepping costs what it costs at rest.
+#[test]
+fn a_vanishing_load_frequency_does_not_crawl() {
+    for omega in [5e-324, 1e-300, 1e-100, 1e-20] {
+        let mut sim = start(&with(common::scene("pinned_beam"), &[(ParamKey::LoadOmega(0), omega)]));
+        sim.advance_to(10.0).unwrap_or_else(|e| panic!("omega = {omega}: {e}"));
+        assert!(sim.stats().probes < 10_000, "omega = {omega}: {} search points", sim.stats().probes);
+        let w = sim.model().stops[0].w.dot(&sim.current().q);
+        assert!(w.abs() < 1e-12, "omega = {omega}: left the stop, w = {w}");
+    }
+}
+
+/// Grazing from rest: at rest on the stop with the load pulling away, the
+/// beam leaves without an impact; pushing into it, it sticks.
+#[test]
+fn grazing_from_rest() {
+    let away = with(common::scene("pinned_beam"), &[(ParamKey::LoadAmplitude(0), -76.8)]);
+    let mut sim = start(&away);
+    sim.advance_to(3.0).unwrap();
+    assert!(sim.state().stops[0].impacts == 0 && !sim.is_stuck(0));
+    let w = sim.model().stops[0].w.dot(&sim.current().q);
+    assert!(w < -1e-3, "did not leave: w = {w}");
+    let toward = common::scene("pinned_beam");
+    let mut sim = start(&toward);
+    sim.advance_to(1.0).unwrap();
+    assert!(sim.is_stuck(0), "a load pushing into the stop from rest holds the beam on it");
+}
+
+/// Event-free work is capped too: a load 1e3 times faster than the first
+/// mode over a step of 1000 time units stops at the cap with the time it
+/// reached, consistent and resumable.
+#[test]
+fn the_work_of_one_step_is_capped() {
+    let mut scene = with(common::scene("pinned_beam"), &[(ParamKey::LoadOmega(0), 1e4), (ParamKey::StopGap(0), 0.5)]);
+    scene.solver.max_probes_per_step = Some(20_000);
+    let mut sim = start(&scene);
+    match sim.advance_to(1000.0) {
+        Err(SimError::TooMuchWork { time, probes }) => {
+            assert_eq!(probes, 20_000);
+            assert!(time > 0.0 && time < 1000.0, "{time}");
+            assert_eq!(sim.time(), time);
+            // The run goes on from there.
+            sim.advance_to(time + 0.01).unwrap();
+        }
+        other => panic!("expected the work cap, got {other:?}"),
+    }
+}
+
+/// A restored state is checked like a reached one: each corruption is
+/// refused with a message naming what is wrong, and the true state passes.
+#[test]
+fn restored_states_are_validated() {
+    let scene = common::scene("pinned_beam");
+    let model = Model::build(&scene).unwrap();
+    // Stuck from t = 0 until 3.18 in the default scene.
+    let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+    sim.advance_to(1.0).unwrap();
+    assert!(sim.is_stuck(0));
+    let good = sim.state().clone();
+    let inputs = sim.inputs().to_vec();
+    let restored = Simulation::restore_checked(model.clone(), inputs.clone(), good.clone()).expect("the true state");
+    assert_eq!(restored.state(), sim.state());
+
+    let corrupt = |label: &str, change: &dyn Fn(&mut SimState), expect: &str| {
+        let mut st = good.clone();
+        change(&mut st);
+        match Simulation::restore_checked(model.clone(), inputs.clone(), st) {
+            Ok(_) => panic!("{label}: accepted"),
+            Err(m) => assert!(m.contains(expect), "{label}: message {m:?} does not mention {expect:?}"),
+        }
+    };
+    corrupt("NaN time", &|s| s.time = f64::NAN, "time");
+    corrupt("infinite anchor time", &|s| s.anchor_time = f64::NEG_INFINITY, "anchor time");
+    corrupt("NaN q", &|s| s.current.q[1] = f64::NAN, "current.q[2]");
+    corrupt("NaN qd", &|s| s.anchor.qd[0] = f64::NAN, "anchor.qd[1]");
+    corrupt("NaN last impact", &|s| s.stops[0].last_impact = f64::NAN, "last impact");
+    corrupt("future impact", &|s| s.stops[0].last_impact = 5.0, "after the time");
+    corrupt("times out of order", &|s| s.scan = s.time - 0.5, "out of order");
+    corrupt("stuck at a missing stop", &|s| s.stuck |= 1 << 5, "does not exist");
+    corrupt("departing a missing stop", &|s| s.departing |= 1 << 63, "does not exist");
+    corrupt("stuck flag cleared", &|s| s.stuck = 0, "away from the motion");
+    corrupt(
+        "stuck flag cleared, anchored now, treated as leaving",
+        &|s| {
+            s.stuck = 0;
+            s.departing = 1;
+            s.anchor = s.current.clone();
+            s.anchor_time = s.time;
+            s.scan = s.time;
+        },
+        "pressed into it",
+    );
+    corrupt("moving along a stop it is stuck to", &|s| s.current.qd[0] += 1e-3, "stuck to stop");
+    corrupt(
+        "through the stop",
+        &|s| {
+            s.stuck = 0;
+            s.current.q[0] += 0.1;
+            s.anchor = s.current.clone();
+            s.anchor_time = s.time;
+            s.scan = s.time;
+        },
+        "penetrated",
+    );
+
+    // A free state well below the stop: stuck flag set there is refused.
+    let mut free = Simulation::new(Model::build(&with(scene.clone(), &[(ParamKey::StopGap(0), 0.5)])).unwrap(), 0.0).unwrap();
+    free.advance_to(0.3).unwrap();
+    let mut st = free.state().clone();
+    st.stuck = 1;
+    st.anchor = st.current.clone();
+    st.anchor_time = st.time;
+    st.scan = st.time;
+    let m = Simulation::restore_checked(free.model().clone(), free.inputs().to_vec(), st).unwrap_err();
+    assert!(m.contains("stuck to stop"), "{m}");
+    // A current state off the motion its anchor gives.
+    let mut st = free.state().clone();
+    st.current.q[0] -= 1e-3;
+    let m = Simulation::restore_checked(free.model().clone(), free.inputs().to_vec(), st).unwrap_err();
+    assert!(m.contains("away from the motion"), "{m}");
+}
+
+/// Energy balance sums must be finite too.
+#[test]
+fn restored_energy_balance_is_validated() {
+    let mut scene = common::scene("pinned_beam");
+    scene.outputs.energy_balance = true;
+    let model = Model::build(&scene).unwrap();
+    let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+    sim.advance_to(4.0).unwrap();
+    let mut st = sim.state().clone();
+    st.balance.as_mut().unwrap().forcing[2] = f64::INFINITY;
+    let m = Simulation::restore_checked(model, sim.inputs().to_vec(), st).unwrap_err();
+    assert!(m.contains("FE[3]"), "{m}");
+}
