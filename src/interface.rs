@@ -338,6 +338,12 @@ impl Limits {
         Range::closed(0.0, MAX_LOAD_FREQUENCY_RATIO * self.omega_high)
     }
 
+    /// Durations such as the chatter threshold: up to 1000 periods of the
+    /// slowest mode (beyond that every impact after the first ends a chatter).
+    pub fn duration_range(&self) -> Range {
+        Range::closed(0.0, 1e3 * 2.0 * std::f64::consts::PI / self.omega_low)
+    }
+
     pub fn zeta_range(&self) -> Range {
         Range::closed(0.0, MAX_ZETA)
     }
@@ -438,7 +444,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
                         "Chatter threshold at stop '{s}': an impact sooner than eps after the previous one ends the chatter with R = 0 and starts sticking"
                     ),
                     Unit::Second,
-                    Range::NON_NEGATIVE,
+                    limits.duration_range(),
                     true,
                 );
             }

@@ -45,7 +45,7 @@ fn out_of_range_values_name_field_value_and_range() {
         ("\"zeta\": 0.05", "\"zeta\": -0.1", "damping.zeta", "-0.1", "[0, 1000]"),
         ("\"zeta\": 0.05", "\"zeta\": 1e4", "damping.zeta", "10000", "[0, 1000]"),
         ("\"gap\": 0.0", "\"gap\": 1e150", "stops[0].gap", "1e150", "[-1000, 1000]"),
-        ("\"eps\": 1e-6", "\"eps\": -1", "stops[0].law.eps", "-1", "[0, inf)"),
+        ("\"eps\": 1e-6", "\"eps\": -1", "stops[0].law.eps", "-1", "[0, 1787.2"),
         ("\"modes\": 4", "\"modes\": 0", "structure.modes", "0", "[1, 500]"),
     ];
     for (from, to, field, value, range) in cases {
