@@ -1,6 +1,7 @@
 //! Generates the C header of the exported FMI functions with cbindgen into
-//! include/beamstop_fmi2.h (committed, and compiled by tests/c_header.rs
-//! together with the standard fmi2Functions.h).
+//! `$OUT_DIR/beamstop_fmi2.h`. The committed copy `include/beamstop_fmi2.h`
+//! is checked against it by `tests/c_header.rs` (which rewrites it when run
+//! with `BEAMSTOP_BLESS=1`); a build never writes outside `OUT_DIR`.
 
 use std::path::PathBuf;
 
@@ -16,11 +17,4 @@ fn main() {
     };
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("beamstop_fmi2.h");
     header.write_to_file(&out);
-    // Keep the committed copy current (rewritten only when it changes).
-    let committed = root.join("include").join("beamstop_fmi2.h");
-    let fresh = std::fs::read(&out).expect("header just written");
-    if std::fs::read(&committed).ok().as_deref() != Some(&fresh[..]) {
-        let _ = std::fs::create_dir_all(committed.parent().expect("has parent"));
-        let _ = std::fs::write(&committed, &fresh);
-    }
 }

@@ -67,7 +67,7 @@ fn energy_is_conserved_with_perfectly_elastic_impacts() {
 #[test]
 fn energy_lost_per_impact_is_the_restitution_formula() {
     // No load, no damping: energy changes only at impacts, by
-    // (1 - R^2)(w . qd-)^2 / (2 w . w) (numerics.md), computed here from the
+    // (1 - R^2)(w . qd-)^2 / (2 w . w) (seed 000 eq. 28 with Kelvin's loss), computed here from the
     // pre-impact state read just before each impact.
     let scene = free_vibration(0.6);
     let model = Model::build(&scene).unwrap();

@@ -57,7 +57,7 @@ pub fn apply_impact(qd: &mut DVector<f64>, rows: &[ImpactRow]) -> Vec<f64> {
 }
 
 /// Kinetic energy lost by a single-point impact:
-/// `(1 - R^2) (w . qd-)^2 / (2 w . w)` (numerics.md, "Contact phases").
+/// `(1 - R^2) (w . qd-)^2 / (2 w . w)` (Kelvin's impact loss with the modal restitution rule, seed 000 eq. 28).
 pub fn energy_loss(w: &DVector<f64>, qd_before: &DVector<f64>, restitution: f64) -> f64 {
     let v = w.dot(qd_before);
     (1.0 - restitution * restitution) * v * v / (2.0 * w.dot(w))

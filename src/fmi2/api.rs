@@ -78,7 +78,8 @@ fn call(c: fmi2Component, f: Function, body: impl FnOnce(&mut Instance) -> CallR
     // SAFETY: a non-null component is one fmi2Instantiate returned and
     // fmi2FreeInstance has not freed (the caller's obligation).
     let instance = unsafe { &mut *(c as *mut Instance) };
-    match guarded(|| body(&mut *instance)) {
+    // The one check of the state machine table, for every function.
+    match guarded(|| instance.enter(f).and_then(|()| body(&mut *instance))) {
         Ok(Ok(())) => Status::Ok.raw(),
         Ok(Err(status)) => status.raw(),
         Err(msg) => {
@@ -378,7 +379,6 @@ pub unsafe extern "C" fn fmi2SetString(
 pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
     let f = Function::GetFMUstate;
     call(c, f, |i| {
-        i.enter(f)?;
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
@@ -397,7 +397,6 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FM
 pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstate) -> fmi2Status {
     let f = Function::SetFMUstate;
     call(c, f, |i| {
-        i.enter(f)?;
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
@@ -408,9 +407,7 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstat
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
-    let f = Function::FreeFMUstate;
-    call(c, f, |i| {
-        i.enter(f)?;
+    call(c, Function::FreeFMUstate, |_| {
         if FMUstate.is_null() || (*FMUstate).is_null() {
             return Ok(());
         }
@@ -424,7 +421,6 @@ pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, FMUstate: *mut fmi2F
 pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, FMUstate: fmi2FMUstate, size: *mut size_t) -> fmi2Status {
     let f = Function::SerializedFMUstateSize;
     call(c, f, |i| {
-        i.enter(f)?;
         if FMUstate.is_null() || size.is_null() {
             return Err(null_argument(i, f, "FMUstate or size"));
         }
@@ -442,7 +438,6 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
 ) -> fmi2Status {
     let f = Function::SerializeFMUstate;
     call(c, f, |i| {
-        i.enter(f)?;
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
@@ -467,7 +462,6 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
 ) -> fmi2Status {
     let f = Function::DeSerializeFMUstate;
     call(c, f, |i| {
-        i.enter(f)?;
         let Some(bytes) = slice(serializedState as *const u8, size) else {
             return Err(null_argument(i, f, "serializedState"));
         };
@@ -497,14 +491,14 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     let _ = (vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown, dvUnknown);
     let f = Function::GetDirectionalDerivative;
     call(c, f, |i| {
-        i.enter(f)?;
         Err(i.fail("fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative = false)"))
     })
 }
 
 /// The Model Exchange functions: declared by fmi2Functions.h, refused here.
 fn model_exchange(c: fmi2Component, name: &'static str) -> fmi2Status {
-    call(c, Function::ModelExchange(name), |i| i.enter(Function::ModelExchange(name)))
+    // The state table allows these in no state: call() refuses them.
+    call(c, Function::ModelExchange(name), |_| Ok(()))
 }
 
 #[no_mangle]
@@ -581,7 +575,6 @@ pub extern "C" fn fmi2SetRealInputDerivatives(
     let _ = (vr, nvr, order, value);
     let f = Function::SetRealInputDerivatives;
     call(c, f, |i| {
-        i.enter(f)?;
         Err(i.fail("fmi2SetRealInputDerivatives: inputs are held constant over a step (canInterpolateInputs = false)"))
     })
 }
@@ -597,7 +590,6 @@ pub extern "C" fn fmi2GetRealOutputDerivatives(
     let _ = (vr, nvr, order, value);
     let f = Function::GetRealOutputDerivatives;
     call(c, f, |i| {
-        i.enter(f)?;
         Err(i.fail("fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder = 0)"))
     })
 }
@@ -615,7 +607,8 @@ pub extern "C" fn fmi2DoStep(
 
 #[no_mangle]
 pub extern "C" fn fmi2CancelStep(c: fmi2Component) -> fmi2Status {
-    call(c, Function::CancelStep, |i| i.enter(Function::CancelStep))
+    // Never allowed (doStep is synchronous): call() refuses it.
+    call(c, Function::CancelStep, |_| Ok(()))
 }
 
 fn unsupported_status(i: &Instance, f: Function, kind: fmi2StatusKind) -> Status {
@@ -627,7 +620,6 @@ fn unsupported_status(i: &Instance, f: Function, kind: fmi2StatusKind) -> Status
 pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
     let f = Function::GetStatus;
     call(c, f, |i| {
-        i.enter(f)?;
         let _ = value;
         Err(unsupported_status(i, f, s))
     })
@@ -638,10 +630,9 @@ pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, 
     let f = Function::GetRealStatus;
     call(c, f, |i| {
         if s != FMI2_LAST_SUCCESSFUL_TIME {
-            i.enter(f)?;
             return Err(unsupported_status(i, f, s));
         }
-        let t = i.status_time(f)?;
+        let t = i.last_successful_time();
         if value.is_null() {
             return Err(null_argument(i, f, "value"));
         }
@@ -655,7 +646,6 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(c: fmi2Component, s: fmi2StatusKin
     let f = Function::GetIntegerStatus;
     let _ = value;
     call(c, f, |i| {
-        i.enter(f)?;
         Err(unsupported_status(i, f, s))
     })
 }
@@ -665,10 +655,9 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, s: fmi2StatusKin
     let f = Function::GetBooleanStatus;
     call(c, f, |i| {
         if s != FMI2_TERMINATED {
-            i.enter(f)?;
             return Err(unsupported_status(i, f, s));
         }
-        let t = i.status_terminated(f)?;
+        let t = i.terminated();
         if value.is_null() {
             return Err(null_argument(i, f, "value"));
         }
@@ -682,7 +671,6 @@ pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, s: fmi2StatusKind
     let f = Function::GetStringStatus;
     let _ = value;
     call(c, f, |i| {
-        i.enter(f)?;
         Err(unsupported_status(i, f, s))
     })
 }

@@ -1,7 +1,7 @@
 //! One FMU instance: the FMI semantics of every call, in safe Rust.
 //!
-//! The C entry points (`api.rs`) only translate pointers and call these
-//! methods. Every method checks the state machine first; bad arguments get
+//! The C entry points (`api.rs`) check the state machine table once, then
+//! translate pointers and call these methods. Bad arguments get
 //! fmi2Error with a message naming the variable, the value and what is
 //! allowed, and leave the instance as it was.
 
@@ -130,7 +130,6 @@ impl Instance {
     }
 
     pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> CallResult {
-        self.enter(Function::SetDebugLogging)?;
         self.logger.set_categories(on, categories).map_err(|m| self.fail(&m))?;
         self.sync_event_recording();
         Ok(())
@@ -145,7 +144,6 @@ impl Instance {
     }
 
     pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> CallResult {
-        self.enter(Function::SetupExperiment)?;
         if !start.is_finite() {
             return Err(self.fail(&format!("fmi2SetupExperiment: startTime = {start}: must be finite")));
         }
@@ -161,7 +159,6 @@ impl Instance {
     }
 
     pub fn enter_initialization_mode(&mut self) -> CallResult {
-        self.enter(Function::EnterInitializationMode)?;
         self.machine = ModelState::InitializationMode;
         self.trace("fmi2EnterInitializationMode");
         Ok(())
@@ -176,7 +173,6 @@ impl Instance {
     }
 
     pub fn exit_initialization_mode(&mut self) -> CallResult {
-        self.enter(Function::ExitInitializationMode)?;
         let built = match self.provisional.take() {
             Some(result) => result,
             None => self.build_simulation(),
@@ -200,14 +196,12 @@ impl Instance {
     }
 
     pub fn terminate(&mut self) -> CallResult {
-        self.enter(Function::Terminate)?;
         self.machine = ModelState::Terminated;
         self.trace("fmi2Terminate");
         Ok(())
     }
 
     pub fn reset(&mut self) -> CallResult {
-        self.enter(Function::Reset)?;
         self.scene = self.packaged.clone();
         self.inputs.iter_mut().for_each(|u| *u = 0.0);
         self.machine = ModelState::Instantiated;
@@ -273,7 +267,6 @@ impl Instance {
     }
 
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> CallResult {
-        self.enter(Function::GetReal)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             if let Value::Real(x) = self.read(Function::GetReal, *vr, VarType::Real)? {
                 *out = x;
@@ -283,7 +276,6 @@ impl Instance {
     }
 
     pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> CallResult {
-        self.enter(Function::GetInteger)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             if let Value::Integer(x) = self.read(Function::GetInteger, *vr, VarType::Integer)? {
                 *out = x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
@@ -293,7 +285,6 @@ impl Instance {
     }
 
     pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> CallResult {
-        self.enter(Function::GetBoolean)?;
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             if let Value::Boolean(x) = self.read(Function::GetBoolean, *vr, VarType::Boolean)? {
                 *out = x;
@@ -305,7 +296,6 @@ impl Instance {
     /// fmi2GetString / SetInteger / SetBoolean / SetString: this FMU has no
     /// variable they can reach; any value reference is an error.
     pub fn no_such_variables(&self, f: Function, vrs: &[u32], what: &str) -> CallResult {
-        self.enter(f)?;
         match vrs.first() {
             None => Ok(()),
             Some(vr) => {
@@ -320,7 +310,6 @@ impl Instance {
 
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> CallResult {
         let f = Function::SetReal;
-        self.enter(f)?;
         // Check every value first: a rejected call changes nothing.
         let mut scene = self.scene.clone();
         let mut inputs = self.inputs.clone();
@@ -392,7 +381,6 @@ impl Instance {
     }
 
     pub fn do_step(&mut self, t: f64, h: f64) -> CallResult {
-        self.enter(Function::DoStep)?;
         let Some(sim) = self.sim.as_mut() else {
             return Err(self.fail("fmi2DoStep: no simulation (initialisation did not complete)"));
         };
@@ -474,14 +462,12 @@ impl Instance {
         }
     }
 
-    pub fn status_time(&mut self, f: Function) -> CallResult<f64> {
-        self.enter(f)?;
-        Ok(self.last_successful_time)
+    pub fn last_successful_time(&self) -> f64 {
+        self.last_successful_time
     }
 
-    pub fn status_terminated(&mut self, f: Function) -> CallResult<bool> {
-        self.enter(f)?;
-        Ok(self.terminated)
+    pub fn terminated(&self) -> bool {
+        self.terminated
     }
 
     pub fn snapshot(&self) -> Snapshot {

@@ -724,7 +724,7 @@ impl Simulation {
         let newly_stuck = stuck & !self.state.stuck;
         departing |= newly_stuck;
         if stuck != 0 {
-            // Exactly on the held stops, moving along them (numerics.md:
+            // Exactly on the held stops, moving along them (seed 000 eqs. 29-31:
             // project at entry so no drift accumulates).
             let system = self.coupled_system(stuck)?;
             system.project(&self.stuck_targets(stuck), &mut st);

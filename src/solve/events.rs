@@ -1,4 +1,4 @@
-//! Guaranteed event location (numerics.md, "Event location").
+//! Guaranteed event location (Taylor lower bounds from rigorous derivative bounds).
 //!
 //! Every switch is the first zero of an event function `h` that is
 //! non-negative while the phase lasts. From `h` and its derivatives at `t`,

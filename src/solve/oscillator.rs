@@ -3,8 +3,8 @@
 //!
 //! Every formula here is free of catastrophic cancellation, whatever the
 //! damping (zero, critical, strongly over-critical) and however close the
-//! forcing is to resonance (numerics.md, "Damped oscillator, exact
-//! propagation").
+//! forcing is to resonance (the classical closed forms, rewritten with
+//! `expm1` and `phi1(z) = (e^z - 1) / z`).
 
 use nalgebra::Complex;
 
@@ -84,7 +84,7 @@ impl Oscillator {
     pub fn kernels_and_increment(&self, t: f64) -> (f64, f64, f64) {
         let r = self.root * t;
         if self.dd < 0.0 && r > 2.0 {
-            // Strongly over-damped: separate slow and fast rates (numerics.md).
+            // Strongly over-damped: separate slow and fast rates (the two real rates of an over-damped oscillator).
             let mu = self.root;
             let slow = self.omega * self.omega / (self.a + mu);
             let fast = self.a + mu;

@@ -2,7 +2,8 @@
 //! and shapes normalised so that `int_0^L mu W_j^2 dx = 1` (seed 000 eqs.
 //! 10-12). Positions `x` run along the beam, `0 <= x <= L`.
 //!
-//! Shapes are written with decaying exponentials only (numerics.md):
+//! Shapes are written with decaying exponentials only (as Goncalves,
+//! Brennan & Elliott, J. Sound Vib. 301 (2007) 1035-1039, recommend):
 //! `W~(xi) = a1 cos(b xi) + a2 sin(b xi) + a3 e^{-b (1 - xi)} + a4 e^{-b xi}`,
 //! the four coefficients from the boundary conditions, so no term grows like
 //! `cosh(b)`: the textbook `cosh - cos - s (sinh - sin)` loses every digit
@@ -206,7 +207,7 @@ mod tests {
     use super::*;
     use std::f64::consts::SQRT_2;
 
-    /// The closed form of numerics.md for the cantilever (an independent
+    /// The textbook closed form for the cantilever (an independent
     /// writing of the same function).
     fn cantilever_note(beta: f64, x: f64) -> f64 {
         let e = (-beta).exp();

@@ -27,7 +27,7 @@ const USAGE: &str = "usage:
   beamstop modes SUPPORT N [X ...]       beta_j and W_j(X), W_j''(X) of the unit-mean-square shapes
                                           (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)
   beamstop measure CONFIG.json           time a scene natively and print its impacts, final state and a dense
-                                          grid of the first stop's displacement as JSON (see src/bin/measure.rs)";
+                                          grid of the first stop's displacement as JSON (see src/bin/beamstop/measure.rs)";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
