@@ -229,11 +229,13 @@ impl Model {
     }
 }
 
-/// The default cap on event-search points per communication step. One
-/// point costs about 0.15 N microseconds on the development machine
-/// (N = 4 to 500, free flight and sticking alike), so the cap keeps the
+/// The default cap on the work of one communication step (event-search
+/// points plus energy-balance nodes). One point costs about 0.15 N
+/// microseconds in free flight and up to twice that through chatter and
+/// sticking on the development machine (N = 4 to 500), so the cap keeps the
 /// worst step near a second at any number of modes (measured:
-/// `cargo run --release --example probe_cost`).
+/// `cargo run --release --example probe_cost`, `cargo test --release --test
+/// range_ends -- --nocapture`).
 pub fn default_probe_budget(n_modes: usize) -> u64 {
-    (6_000_000 / n_modes.max(1) as u64).min(2_500_000)
+    (2_000_000 / n_modes.max(1) as u64).min(1_000_000)
 }

@@ -88,6 +88,7 @@ fn the_work_of_one_step_is_capped() {
     match sim.advance_to(1000.0) {
         Err(SimError::TooMuchWork { time, probes }) => {
             assert_eq!(probes, 20_000);
+            assert!(SimError::TooMuchWork { time, probes }.to_string().contains("max_probes_per_step"));
             assert!(time > 0.0 && time < 1000.0, "{time}");
             assert_eq!(sim.time(), time);
             // The run goes on from there.
@@ -183,4 +184,24 @@ fn restored_energy_balance_is_validated() {
     st.balance.as_mut().unwrap().forcing[2] = f64::INFINITY;
     let m = Simulation::restore_checked(model, sim.inputs().to_vec(), st).unwrap_err();
     assert!(m.contains("FE[3]"), "{m}");
+}
+
+/// The energy balance's quadrature counts against the same cap: a chain
+/// with seed 003's accounting, loaded at the fastest admitted frequency,
+/// over a step a thousand times its horizon, stops at the cap promptly.
+#[test]
+fn the_energy_balance_counts_against_the_cap() {
+    let mut scene = common::scene("wagg_bishop_chain");
+    assert!(scene.outputs.energy_balance);
+    let omega_max = beamstop::interface::Limits::of(&scene).load_frequency_range().max;
+    ParamKey::LoadOmega(0).set(&mut scene, omega_max);
+    scene.solver.max_probes_per_step = Some(200_000);
+    let mut sim = start(&scene);
+    let t0 = std::time::Instant::now();
+    match sim.advance_to(1e5) {
+        Err(SimError::TooMuchWork { time, .. }) => assert!(time > 0.0 && time < 1e5),
+        other => panic!("expected the work cap, got {other:?}"),
+    }
+    // 200k units of work: well under a second (a generous bound, not a benchmark).
+    assert!(t0.elapsed() < std::time::Duration::from_secs(5), "{:?}", t0.elapsed());
 }

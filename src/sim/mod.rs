@@ -75,8 +75,9 @@ impl fmt::Display for SimError {
             ),
             SimError::TooMuchWork { time, probes } => write!(
                 f,
-                "{probes} event-search points within one step, stopped at t = {time}: take shorter communication steps \
-                 or raise solver.max_probes_per_step"
+                "the work cap of one step (event-search points and energy-balance quadrature nodes, \
+                 solver.max_probes_per_step) was reached after {probes} event-search points, at t = {time}: \
+                 take shorter communication steps or raise solver.max_probes_per_step"
             ),
             SimError::Contact(e) => write!(f, "{e}"),
             SimError::Backwards { now, requested } => {
@@ -322,10 +323,7 @@ impl Simulation {
             return;
         }
         let n = self.model.n_modes();
-        let mut fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
-        for h in &self.dynamics.forcing.harmonics {
-            fastest = fastest.max(h.omega);
-        }
+        let fastest = self.fastest_frequency();
         let mut st = ModalState::zeros(n);
         let mut f = DVector::zeros(n);
         let mut forcing = vec![0.0; n];
@@ -346,6 +344,26 @@ impl Simulation {
             b.damping[j] += damping[j];
         }
         b.time = t;
+    }
+
+    /// The fastest frequency in the motion: the highest mode or load.
+    fn fastest_frequency(&self) -> f64 {
+        let mut fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
+        for h in &self.dynamics.forcing.harmonics {
+            fastest = fastest.max(h.omega);
+        }
+        fastest
+    }
+
+    /// Quadrature nodes per unit time of the energy balance (0 without
+    /// it): each costs about what a point of the event search costs, and
+    /// counts against the same cap.
+    fn balance_nodes_per_time(&self) -> f64 {
+        match self.state.balance {
+            // 16-point panels of pi / 2 at twice the fastest frequency.
+            Some(_) => 16.0 * 2.0 * self.fastest_frequency() / (0.5 * std::f64::consts::PI),
+            None => 0.0,
+        }
     }
 
     /// The reaction of a stop at the current time (0 unless stuck to it).
@@ -558,13 +576,15 @@ impl Simulation {
     fn scan_to(&mut self, t_end: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Result<(), SimError> {
         let mut count = 0u64;
         let mut probes = 0u64;
+        let (start, balance_rate) = (self.state.time, self.balance_nodes_per_time());
         loop {
             let l = self.state.scan;
             if l > t_end {
                 break;
             }
             probes += 1;
-            if probes > self.model.max_probes_per_step {
+            let balance_nodes = balance_rate * (l.min(t_end) - start);
+            if probes as f64 + balance_nodes > self.model.max_probes_per_step as f64 {
                 self.stop_at(l);
                 return Err(SimError::TooMuchWork { time: l, probes: probes - 1 });
             }
