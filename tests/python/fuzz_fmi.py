@@ -1,0 +1,375 @@
+"""A seeded fuzzer of the FMU's C API: random FMI call sequences and
+corrupted serialized states, through ctypes on the FMU's shared library.
+
+    python tests/python/fuzz_fmi.py --fmu target/fmu/PinnedBeamStop.fmu --seed 1 --calls 100000
+
+(the long run; tests/python/test_fuzz.py runs a bounded one over every FMU
+in CI). Each run prints a JSON summary: calls made, corrupted states tried,
+the longest single call, and every broken promise with the seed and call
+index that reproduce it. Promises checked after every call:
+
+- the return is a legal fmi2Status, and the call returns within LIMIT s;
+- outputs read with fmi2OK are finite, and no stop is penetrated beyond
+  rounding (its displacement against its gap parameter and side);
+- a call refused for a bad argument (fmi2Error while the instance was
+  stepping) leaves the instance usable: a following fmi2GetReal succeeds;
+- a corrupted serialized state is refused, or the state it gives is one the
+  model can be in (the same output checks, then a step that returns).
+A crash kills this process and a hang never finishes: the caller (the test)
+runs it in a subprocess with a timeout and reports both.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import math
+import random
+import struct
+import sys
+import tempfile
+import time
+import zipfile
+from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
+from pathlib import Path
+
+from fmpy import read_model_description
+from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+LIMIT = 10.0  # seconds: the longest a single call may take
+OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
+STEP_COMPLETE, STEP_FAILED, READABLE = "stepComplete", "stepFailed", ("init", "stepComplete", "stepFailed", "terminated")
+
+
+class Harness:
+    def __init__(self, fmu: str, seed: int):
+        self.rng = random.Random(seed)
+        self.seed = seed
+        self.md = read_model_description(fmu)
+        self.dir = Path(tempfile.mkdtemp(prefix="fuzz"))
+        with zipfile.ZipFile(fmu) as z:
+            z.extractall(self.dir)
+        ident = self.md.coSimulation.modelIdentifier
+        self.lib = ctypes.CDLL(str(self.dir / "binaries" / "linux64" / f"{ident}.so"))
+        self._types()
+        self.messages: list[str] = []
+
+        def log(env, name, status, category, message):
+            if len(self.messages) < 1000:
+                self.messages.append(message.decode("utf-8", "replace"))
+
+        self.callbacks = fmi2CallbackFunctions()
+        self.callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        self.reals = [v for v in self.md.modelVariables if v.type == "Real"]
+        self.ints = [v for v in self.md.modelVariables if v.type == "Integer"]
+        self.bools = [v for v in self.md.modelVariables if v.type == "Boolean"]
+        self.settable = [v for v in self.reals if v.causality in ("parameter", "input")]
+        self.outputs = [v for v in self.reals if v.causality == "output"]
+        self.n_vr = len(self.md.modelVariables)
+        self.stops = self._stops()
+        self.c = None
+        self.state = None  # our model of the instance's state machine
+        self.time = 0.0
+        self.snapshots: dict[int, str] = {}
+        self.calls = 0
+        self.states_tried = 0
+        self.longest = (0.0, "")
+        self.broken: list[str] = []
+
+    # ---------------------------------------------------------------- setup
+    def _types(self):
+        L = self.lib
+        sig = {
+            "fmi2Instantiate": (c_void_p, [c_char_p, c_int, c_char_p, c_char_p, c_void_p, c_int, c_int]),
+            "fmi2FreeInstance": (None, [c_void_p]),
+            "fmi2SetupExperiment": (c_int, [c_void_p, c_int, c_double, c_double, c_int, c_double]),
+            "fmi2EnterInitializationMode": (c_int, [c_void_p]),
+            "fmi2ExitInitializationMode": (c_int, [c_void_p]),
+            "fmi2Terminate": (c_int, [c_void_p]),
+            "fmi2Reset": (c_int, [c_void_p]),
+            "fmi2GetReal": (c_int, [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)]),
+            "fmi2SetReal": (c_int, [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_double)]),
+            "fmi2GetInteger": (c_int, [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)]),
+            "fmi2GetBoolean": (c_int, [c_void_p, POINTER(c_uint), c_size_t, POINTER(c_int)]),
+            "fmi2DoStep": (c_int, [c_void_p, c_double, c_double, c_int]),
+            "fmi2CancelStep": (c_int, [c_void_p]),
+            "fmi2GetRealStatus": (c_int, [c_void_p, c_int, POINTER(c_double)]),
+            "fmi2GetBooleanStatus": (c_int, [c_void_p, c_int, POINTER(c_int)]),
+            "fmi2GetStatus": (c_int, [c_void_p, c_int, POINTER(c_int)]),
+            "fmi2GetFMUstate": (c_int, [c_void_p, POINTER(c_void_p)]),
+            "fmi2SetFMUstate": (c_int, [c_void_p, c_void_p]),
+            "fmi2FreeFMUstate": (c_int, [c_void_p, POINTER(c_void_p)]),
+            "fmi2SerializedFMUstateSize": (c_int, [c_void_p, c_void_p, POINTER(c_size_t)]),
+            "fmi2SerializeFMUstate": (c_int, [c_void_p, c_void_p, c_char_p, c_size_t]),
+            "fmi2DeSerializeFMUstate": (c_int, [c_void_p, c_char_p, c_size_t, POINTER(c_void_p)]),
+            "fmi2SetDebugLogging": (c_int, [c_void_p, c_int, c_size_t, POINTER(c_char_p)]),
+        }
+        for name, (res, args) in sig.items():
+            f = getattr(L, name)
+            f.restype, f.argtypes = res, args
+
+    def _stops(self):
+        """(displacement output, gap parameter, side) of every stop, from the scene."""
+        scene = json.loads((self.dir / "resources" / "scene.json").read_text())
+        names = {v.name for v in self.md.modelVariables}
+        out = []
+        for s in scene.get("stops", []):
+            rename = s.get("names", {})
+            w = rename.get("w", f"{s['name']}.w")
+            gap = rename.get("gap", f"{s['name']}.gap")
+            if w in names and gap in names:
+                out.append((self.var(w), self.var(gap), 1.0 if s.get("side", "positive") == "positive" else -1.0))
+        return out
+
+    def var(self, name):
+        return next(v for v in self.md.modelVariables if v.name == name)
+
+    # ---------------------------------------------------------------- calls
+    def call(self, what: str, f, *args):
+        t0 = time.perf_counter()
+        r = f(*args)
+        dt = time.perf_counter() - t0
+        self.calls += 1
+        if dt > self.longest[0]:
+            self.longest = (dt, what)
+        if dt > LIMIT:
+            self.broken.append(f"seed {self.seed} call {self.calls}: {what} took {dt:.1f} s")
+        if f.restype is c_int and r not in (OK, WARNING, DISCARD, ERROR, FATAL, PENDING):
+            self.broken.append(f"seed {self.seed} call {self.calls}: {what} returned {r}")
+        return r
+
+    def value(self, v=None) -> float:
+        pool = [0.0, 1.0, -1.0, 1e-300, 5e-324, -5e-324, 1e308, -1e308, 1e150, math.nan, math.inf, -math.inf]
+        if v is not None and v.min is not None and v.max is not None:
+            lo, hi = float(v.min), float(v.max)
+            pool += [lo, hi, lo - abs(lo) * 1e-12 - 1e-300, hi + abs(hi) * 1e-12 + 1e-300, self.rng.uniform(lo, hi)] * 3
+        if v is not None and v.start is not None:
+            pool += [float(v.start)] * 3
+        return self.rng.choice(pool)
+
+    def vr(self, pool):
+        if self.rng.random() < 0.1:
+            return self.rng.choice([self.n_vr, self.n_vr + 7, 2**32 - 1])
+        return self.rng.choice(pool).valueReference
+
+    def instantiate(self):
+        self.c = self.call("fmi2Instantiate", self.lib.fmi2Instantiate, b"fuzz", 1, self.md.guid.encode(),
+                           (self.dir / "resources").as_uri().encode(), byref(self.callbacks), 0, self.rng.random() < 0.3)
+        assert self.c, "fmi2Instantiate returned NULL: " + " | ".join(self.messages[-3:])
+        self.state = "instantiated"
+        self.time = 0.0
+
+    # ---------------------------------------------------------------- checks
+    def check_outputs(self, where: str):
+        if self.state not in READABLE:
+            return
+        vrs = [v.valueReference for v in self.outputs]
+        arr = (c_uint * len(vrs))(*vrs)
+        vals = (c_double * len(vrs))()
+        r = self.call("fmi2GetReal(outputs)", self.lib.fmi2GetReal, self.c, arr, len(vrs), vals)
+        if r != OK:
+            if self.state in ("stepComplete", "stepFailed", "terminated"):
+                self.broken.append(f"seed {self.seed} call {self.calls}: outputs unreadable after {where}: "
+                                   + " | ".join(self.messages[-2:]))
+            return
+        got = dict(zip(vrs, vals))
+        for v in self.outputs:
+            if not math.isfinite(got[v.valueReference]):
+                self.broken.append(f"seed {self.seed} call {self.calls}: {v.name} = {got[v.valueReference]} after {where}")
+        for w, gap, side in self.stops:
+            g = (c_double * 1)()
+            self.lib.fmi2GetReal(self.c, (c_uint * 1)(gap.valueReference), 1, g)
+            y = got[w.valueReference]
+            penetration = side * y - g[0]
+            # Rounding is relative to the largest displacement the model
+            # admits (the gap's declared bound, 1000 structure lengths).
+            if penetration > 1e-9 * (abs(g[0]) + abs(y)) + 1e-15 * float(gap.max):
+                self.broken.append(f"seed {self.seed} call {self.calls}: {w.name} = {y} penetrates gap {g[0]} after {where}")
+
+    # ---------------------------------------------------------------- moves
+    def move(self):
+        rng = self.rng
+        if self.c is None:
+            self.instantiate()
+            return
+        L, c = self.lib, self.c
+        op = rng.choices(
+            ["setup", "enter", "exit", "set", "get", "geti", "step", "step", "step", "getstate", "setstate",
+             "serialize", "reset", "terminate", "cancel", "status", "logging", "free"],
+            weights=[3, 3, 3, 12, 6, 2, 12, 12, 12, 3, 3, 3, 1, 1, 1, 2, 1, 0.3])[0]
+        if op == "setup":
+            start = rng.choice([0.0, 0.0, 0.0, 1.5, -3.0, 1e6, 1e15, math.nan, math.inf])
+            stop_defined = rng.random() < 0.5
+            r = self.call("fmi2SetupExperiment", L.fmi2SetupExperiment, c, 0, 0.0, start, stop_defined,
+                          rng.choice([start + 100.0, start - 1.0, math.nan]))
+            if r == OK:
+                self.time = start
+        elif op == "enter":
+            if self.call("fmi2EnterInitializationMode", L.fmi2EnterInitializationMode, c) == OK:
+                self.state = "init"
+        elif op == "exit":
+            if self.call("fmi2ExitInitializationMode", L.fmi2ExitInitializationMode, c) == OK:
+                self.state = STEP_COMPLETE
+                self.check_outputs("fmi2ExitInitializationMode")
+        elif op == "set":
+            n = rng.choice([1, 1, 1, 2, 3])
+            vars_ = [rng.choice(self.settable) for _ in range(n)]
+            vrs = [self.vr(self.settable) if rng.random() < 0.2 else v.valueReference for v in vars_]
+            vals = [self.value(v) for v in vars_]
+            r = self.call("fmi2SetReal", L.fmi2SetReal, c, (c_uint * n)(*vrs), n, (c_double * n)(*vals))
+            if r == ERROR and self.state == STEP_COMPLETE:
+                self.check_outputs(f"refused fmi2SetReal {vrs}={vals}")
+            elif r == OK:
+                self.check_outputs(f"fmi2SetReal {vrs}={vals}")
+        elif op == "get":
+            n = rng.choice([1, 2, 5])
+            vrs = [self.vr(self.reals) for _ in range(n)]
+            self.call("fmi2GetReal", L.fmi2GetReal, c, (c_uint * n)(*vrs), n, (c_double * n)())
+        elif op == "geti":
+            pool = self.ints or self.reals
+            vrs = [self.vr(pool)]
+            self.call("fmi2GetInteger", L.fmi2GetInteger, c, (c_uint * 1)(*vrs), 1, (c_int * 1)())
+            if self.bools:
+                self.call("fmi2GetBoolean", L.fmi2GetBoolean, c, (c_uint * 1)(self.vr(self.bools)), 1, (c_int * 1)())
+        elif op == "step":
+            h = rng.choice([1e-3, 1e-2, 1e-2, 0.1, 1.0, 1e-12, 1e-300, 50.0, 1e3, 0.0, -1.0, math.nan, math.inf])
+            t = self.time if rng.random() < 0.9 else rng.choice([self.time + 1.0, math.nan, -1.0])
+            r = self.call(f"fmi2DoStep(t={t}, h={h})", L.fmi2DoStep, c, t, h, 1)
+            if r == OK:
+                self.time = t + h
+                self.check_outputs(f"fmi2DoStep(h={h})")
+            elif r == DISCARD:
+                reached = c_double()
+                L.fmi2GetRealStatus(c, 2, byref(reached))
+                if not (math.isfinite(reached.value) and reached.value >= self.time):
+                    self.broken.append(f"seed {self.seed} call {self.calls}: discarded step reports time {reached.value}")
+                self.state = STEP_FAILED
+                self.check_outputs("discarded fmi2DoStep")
+            elif r == ERROR and self.state == STEP_COMPLETE:
+                self.check_outputs(f"refused fmi2DoStep(t={t}, h={h})")
+        elif op == "getstate":
+            s = c_void_p()
+            if self.call("fmi2GetFMUstate", L.fmi2GetFMUstate, c, byref(s)) == OK:
+                self.snapshots[s.value] = (self.state, self.time)
+        elif op == "setstate" and self.snapshots:
+            key = rng.choice(list(self.snapshots))
+            if self.call("fmi2SetFMUstate", L.fmi2SetFMUstate, c, c_void_p(key)) == OK:
+                self.state, self.time = self.snapshots[key]
+                self.check_outputs("fmi2SetFMUstate")
+        elif op == "serialize":
+            self.serialize_round_trip()
+        elif op == "reset":
+            if self.call("fmi2Reset", L.fmi2Reset, c) == OK:
+                self.state, self.time = "instantiated", 0.0
+        elif op == "terminate":
+            if self.call("fmi2Terminate", L.fmi2Terminate, c) == OK:
+                self.state = "terminated"
+        elif op == "cancel":
+            self.call("fmi2CancelStep", L.fmi2CancelStep, c)
+        elif op == "status":
+            self.call("fmi2GetStatus", L.fmi2GetStatus, c, rng.randrange(-1, 6), byref(c_int()))
+            self.call("fmi2GetRealStatus", L.fmi2GetRealStatus, c, rng.randrange(-1, 6), byref(c_double()))
+            self.call("fmi2GetBooleanStatus", L.fmi2GetBooleanStatus, c, rng.randrange(-1, 6), byref(c_int()))
+        elif op == "logging":
+            cats = [b"logEvents", b"logAll", b"nonsense"][: rng.randrange(0, 4)]
+            arr = (c_char_p * max(1, len(cats)))(*cats) if cats else None
+            self.call("fmi2SetDebugLogging", L.fmi2SetDebugLogging, c, rng.random() < 0.5, len(cats), arr)
+        elif op == "free":
+            for key in list(self.snapshots):
+                L.fmi2FreeFMUstate(c, byref(c_void_p(key)))
+            self.snapshots.clear()
+            self.call("fmi2FreeInstance", L.fmi2FreeInstance, c)
+            self.c = None
+
+    def serialized(self):
+        L, c = self.lib, self.c
+        s = c_void_p()
+        if L.fmi2GetFMUstate(c, byref(s)) != OK:
+            return None
+        size = c_size_t()
+        L.fmi2SerializedFMUstateSize(c, s, byref(size))
+        buf = ctypes.create_string_buffer(size.value)
+        L.fmi2SerializeFMUstate(c, s, buf, size.value)
+        L.fmi2FreeFMUstate(c, byref(s))
+        return bytes(buf.raw)
+
+    def corrupt(self, data: bytes) -> bytes:
+        rng = self.rng
+        b = bytearray(data)
+        kind = rng.randrange(5)
+        if kind == 0 and len(b) > 8:  # a double slot
+            k = rng.randrange(0, len(b) - 8)
+            struct.pack_into("<d", b, k, rng.choice([math.nan, math.inf, -math.inf, 1e308, -1e300, 5e-324, 1e6, -0.5]))
+        elif kind == 1:  # random bytes
+            for _ in range(rng.randint(1, 4)):
+                b[rng.randrange(len(b))] = rng.randrange(256)
+        elif kind == 2:  # truncate
+            del b[rng.randrange(len(b)):]
+        elif kind == 3:  # extend
+            b += bytes(rng.randrange(256) for _ in range(rng.randint(1, 16)))
+        else:  # an integer field (counts, flags, lengths)
+            k = rng.randrange(0, max(1, len(b) - 8))
+            struct.pack_into("<Q", b, k, rng.choice([0, 1, 2**63, 2**64 - 1, 64, 3]))
+        return bytes(b)
+
+    def serialize_round_trip(self):
+        """A serialized state, corrupted, restored: refused, or a state the
+        model can be in."""
+        L, c = self.lib, self.c
+        data = self.serialized()
+        if data is None:
+            return
+        self.states_tried += 1
+        before = (self.state, self.time)
+        bad = self.corrupt(data)
+        s = c_void_p()
+        r = self.call("fmi2DeSerializeFMUstate", L.fmi2DeSerializeFMUstate, c, bad, len(bad), byref(s))
+        if r != OK:
+            self.check_outputs("refused fmi2DeSerializeFMUstate")
+            return
+        if self.call("fmi2SetFMUstate(corrupted)", L.fmi2SetFMUstate, c, s) == OK:
+            t = c_double()
+            L.fmi2GetRealStatus(c, 2, byref(t))
+            self.time = t.value
+            self.state = None  # unknown: read what we can
+            outs = (c_double * len(self.outputs))()
+            vrs = (c_uint * len(self.outputs))(*[v.valueReference for v in self.outputs])
+            if L.fmi2GetReal(c, vrs, len(self.outputs), outs) == OK:
+                self.state = STEP_COMPLETE
+                self.check_outputs("restored corrupted state")
+                r = self.call("fmi2DoStep(after corrupted)", L.fmi2DoStep, c, self.time, 0.01, 1)
+                if r == OK:
+                    self.time += 0.01
+                    self.check_outputs("step after a restored corrupted state")
+        L.fmi2FreeFMUstate(c, byref(s))
+        # back to the true state
+        good = c_void_p()
+        if L.fmi2DeSerializeFMUstate(c, data, len(data), byref(good)) == OK:
+            L.fmi2SetFMUstate(c, good)
+            L.fmi2FreeFMUstate(c, byref(good))
+            self.state, self.time = before
+
+    def run(self, calls: int) -> dict:
+        while self.calls < calls:
+            self.move()
+        if self.c is not None:
+            for key in list(self.snapshots):
+                self.lib.fmi2FreeFMUstate(self.c, byref(c_void_p(key)))
+            self.lib.fmi2FreeInstance(self.c)
+        return {"fmu": self.md.coSimulation.modelIdentifier, "seed": self.seed, "calls": self.calls,
+                "states": self.states_tried, "longest_s": self.longest[0], "longest_call": self.longest[1],
+                "broken": self.broken[:20], "n_broken": len(self.broken)}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--fmu", required=True)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--calls", type=int, default=10000)
+    a = ap.parse_args()
+    print(json.dumps(Harness(a.fmu, a.seed).run(a.calls)))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
