@@ -322,6 +322,8 @@ class Harness:
             return
         self.states_tried += 1
         before = (self.state, self.time)
+        if before[0] == "error":
+            return
         bad = self.corrupt(data)
         s = c_void_p()
         r = self.call("fmi2DeSerializeFMUstate", L.fmi2DeSerializeFMUstate, c, bad, len(bad), byref(s))
@@ -343,12 +345,15 @@ class Harness:
                     self.time += 0.01
                     self.check_outputs("step after a restored corrupted state")
         L.fmi2FreeFMUstate(c, byref(s))
-        # back to the true state
+        # back to the true state, which must be accepted
         good = c_void_p()
         if L.fmi2DeSerializeFMUstate(c, data, len(data), byref(good)) == OK:
             L.fmi2SetFMUstate(c, good)
             L.fmi2FreeFMUstate(c, byref(good))
             self.state, self.time = before
+        else:
+            self.broken.append(f"seed {self.seed} call {self.calls}: a true serialized state was refused: "
+                               + " | ".join(self.messages[-2:]))
 
     def run(self, calls: int) -> dict:
         while self.calls < calls:

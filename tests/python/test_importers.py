@@ -26,7 +26,7 @@ from fmpy import read_model_description
 from conftest import FMU_DIR, python_env
 
 HERE = Path(__file__).resolve().parent
-FMUS = sorted(FMU_DIR.glob("*.fmu"))
+FMUS = sorted(Path(os.environ.get("BEAMSTOP_FMU_DIR", FMU_DIR)).glob("*.fmu"))
 MAX_STEPS = 1500
 
 

@@ -78,6 +78,8 @@ pub fn measure(config: &Path) -> Result<(), String> {
     if let Some(tol) = cfg.event_tolerance {
         scene.solver.event_tolerance = tol;
     }
+    // A measurement may take the whole horizon in one call: no work cap.
+    scene.solver.max_probes_per_step = Some(u64::MAX);
     let params = interface::parameters(&scene);
     for (name, value) in &cfg.set {
         let p = params.iter().find(|p| &p.name == name).ok_or_else(|| format!("set: no parameter named {name:?}"))?;
