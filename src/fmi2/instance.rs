@@ -56,7 +56,8 @@ pub struct Instance {
 pub type CallResult<T = ()> = Result<T, Status>;
 
 /// The coarsest time resolution (an ulp of the time), relative to the
-/// shortest natural period, at which steps are still taken.
+/// period of the first mode (or of a faster load), at which steps are
+/// still taken.
 pub const MAX_TIME_RESOLUTION: f64 = 1e-6;
 
 impl Instance {
@@ -405,7 +406,7 @@ impl Instance {
         if resolution > MAX_TIME_RESOLUTION * period {
             return Err(self.fail(&format!(
                 "fmi2DoStep: t + h = {target}: the time's resolution there ({resolution:e}) exceeds {MAX_TIME_RESOLUTION} of the \
-                 shortest natural period ({period:e}), too coarse to locate impacts; start the experiment nearer t = 0"
+                 period of the first mode or the load ({period:e}), too coarse to locate impacts; start the experiment nearer t = 0"
             )));
         }
         if let Some(stop) = self.stop_time {
