@@ -170,6 +170,19 @@ fn restored_states_are_validated() {
     st.current.q[0] -= 1e-3;
     let m = Simulation::restore_checked(free.model().clone(), free.inputs().to_vec(), st).unwrap_err();
     assert!(m.contains("away from the motion"), "{m}");
+    // A search position pushed past the next impact: the claim that the
+    // segment is event-free up to there is refused (it would skip the impact).
+    let mut sim = free.clone();
+    sim.drain_events();
+    let before = sim.state().clone();
+    sim.advance_to(3.0).unwrap();
+    let first_impact = sim.drain_events().into_iter().find(|e| matches!(e.kind, EventKind::Impact { .. })).expect("an impact by t = 3").time;
+    let mut st = before.clone();
+    st.scan = first_impact + 1e-3;
+    let m = Simulation::restore_checked(free.model().clone(), free.inputs().to_vec(), st).unwrap_err();
+    assert!(m.contains("cannot be certified"), "{m}");
+    // The true one passes.
+    Simulation::restore_checked(free.model().clone(), free.inputs().to_vec(), before).unwrap();
 }
 
 /// Energy balance sums must be finite too.

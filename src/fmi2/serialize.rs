@@ -96,10 +96,13 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     for (input, value) in table.inputs.iter().zip(&inputs) {
         input.range.check(&format!("serialized state: input '{}'", input.name), *value)?;
     }
-    // The parameters are checked as fmi2SetReal checks them, simulation or not.
+    // The parameters are checked as fmi2SetReal checks them in the same
+    // state: the scene's rules before a simulation exists, a whole model
+    // once one does.
     let scene = instance.scene_with(&parameters);
-    let model = Model::build(&scene).map_err(|e| format!("serialized state: parameters: {e}"))?;
+    scene.validate().map_err(|e| format!("serialized state: parameters: {e}"))?;
     let sim = if has_sim {
+        let model = Model::build(&scene).map_err(|e| format!("serialized state: parameters: {e}"))?;
         let sim = Simulation::decode(model, inputs.clone(), &mut r)?;
         if sim.time() < start_time {
             return Err(format!("serialized state: simulation time {} before the start time {start_time}", sim.time()));

@@ -105,6 +105,12 @@ impl Simulation {
         check_numbers(&state, model.stops.len())?;
         let sim = Simulation::restore(model, inputs, state).map_err(|e| e.to_string())?;
         check_geometry(&sim)?;
+        if !sim.certifies_up_to_scan(1000) {
+            return Err(format!(
+                "simulation state: the claim that no event lies between t = {} and the search position {} cannot be certified",
+                sim.state.time, sim.state.scan
+            ));
+        }
         Ok(sim)
     }
 }

@@ -626,6 +626,37 @@ impl Simulation {
         Ok(())
     }
 
+    /// Whether the event search, restarted at the current time with the
+    /// current departing flags, proves `[time, scan)` free of events within
+    /// `max_probes` points: the check of a restored state's claim that its
+    /// segment is event-free up to `scan` (a forged claim would skip a
+    /// contact). The state itself is not changed, so a state that passes
+    /// continues bit for bit.
+    fn certifies_up_to_scan(&self, max_probes: u64) -> bool {
+        let target = self.state.scan;
+        let mut check = Simulation { record_events: false, scratch: None, ..self.clone() };
+        check.state.scan = check.state.time;
+        let mut buffers = ProbeBuffers::new(&check.dynamics);
+        let mut st = ModalState::zeros(check.model.n_modes());
+        for _ in 0..max_probes {
+            let l = check.state.scan;
+            if l >= target {
+                return true;
+            }
+            match check.probe(l, &mut st, &mut buffers) {
+                Probe::Events(_) => return false,
+                Probe::Clear { step, departing, .. } => {
+                    if !(l + step > l) {
+                        return false;
+                    }
+                    check.state.departing = departing;
+                    check.state.scan = l + step;
+                }
+            }
+        }
+        false
+    }
+
     fn record(&mut self, time: f64, kind: EventKind) {
         if self.record_events {
             self.events.push(Event { time, kind });

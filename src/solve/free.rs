@@ -351,6 +351,9 @@ impl ModalBounds {
             }
             out.m[k] = s;
         }
+        // The rounding level of the displacement part of `h` over the
+        // interval: a gap below it (a denormal clearance, say) is zero.
+        out.floor[0] = NOISE * h.q.iter().zip(self.b[0].iter()).map(|(a, b)| a.abs() * b).sum::<f64>();
         out
     }
 }

@@ -22,6 +22,7 @@ runs it in a subprocess with a timeout and reports both.
 from __future__ import annotations
 
 import argparse
+import collections
 import ctypes
 import json
 import math
@@ -53,11 +54,10 @@ class Harness:
         ident = self.md.coSimulation.modelIdentifier
         self.lib = ctypes.CDLL(str(self.dir / "binaries" / "linux64" / f"{ident}.so"))
         self._types()
-        self.messages: list[str] = []
+        self.messages: collections.deque[str] = collections.deque(maxlen=200)
 
         def log(env, name, status, category, message):
-            if len(self.messages) < 1000:
-                self.messages.append(message.decode("utf-8", "replace"))
+            self.messages.append(message.decode("utf-8", "replace"))
 
         self.callbacks = fmi2CallbackFunctions()
         self.callbacks.logger = fmi2CallbackLoggerTYPE(log)
@@ -156,7 +156,7 @@ class Harness:
     def instantiate(self):
         self.c = self.call("fmi2Instantiate", self.lib.fmi2Instantiate, b"fuzz", 1, self.md.guid.encode(),
                            (self.dir / "resources").as_uri().encode(), byref(self.callbacks), 0, self.rng.random() < 0.3)
-        assert self.c, "fmi2Instantiate returned NULL: " + " | ".join(self.messages[-3:])
+        assert self.c, "fmi2Instantiate returned NULL: " + " | ".join(list(self.messages)[-3:])
         self.state = "instantiated"
         self.time = 0.0
 
@@ -171,7 +171,7 @@ class Harness:
         if r != OK:
             if self.state in ("stepComplete", "stepFailed", "terminated"):
                 self.broken.append(f"seed {self.seed} call {self.calls}: outputs unreadable after {where}: "
-                                   + " | ".join(self.messages[-2:]))
+                                   + " | ".join(list(self.messages)[-2:]))
             return
         got = dict(zip(vrs, vals))
         for v in self.outputs:
@@ -353,7 +353,7 @@ class Harness:
             self.state, self.time = before
         else:
             self.broken.append(f"seed {self.seed} call {self.calls}: a true serialized state was refused: "
-                               + " | ".join(self.messages[-2:]))
+                               + " | ".join(list(self.messages)[-2:]))
 
     def run(self, calls: int) -> dict:
         while self.calls < calls:
