@@ -65,6 +65,7 @@ fn main() {
             }
             EventKind::Release { .. } => println!("  t = {:.12}: release (reaction changed sign)", e.time),
             EventKind::Graze { .. } => println!("  t = {:.12}: graze", e.time),
+            EventKind::Contact { .. } | EventKind::Separation { .. } => unreachable!("the seed 000 beam has a rigid stop"),
         }
     }
     println!("  {} impacts in all, {:.2} ms natively", sim.state().stops[0].impacts, elapsed.as_secs_f64() * 1e3);

@@ -20,6 +20,8 @@ pub enum Unit {
     NewtonMetre,
     Joule,
     RadianPerSecond,
+    NewtonSecondPerMetre,
+    NewtonSecond,
     /// Viscous damping per unit length, N s / m^2.
     NewtonSecondPerMetre2,
 }
@@ -37,6 +39,8 @@ impl Unit {
             Unit::NewtonMetre => "N.m",
             Unit::Joule => "J",
             Unit::RadianPerSecond => "rad/s",
+            Unit::NewtonSecondPerMetre => "N.s/m",
+            Unit::NewtonSecond => "N.s",
             Unit::NewtonSecondPerMetre2 => "N.s/m2",
         }
     }
@@ -53,6 +57,8 @@ impl Unit {
             Unit::NewtonPerMetre => [1, 0, -2, 0],
             Unit::NewtonMetre | Unit::Joule => [1, 2, -2, 0],
             Unit::RadianPerSecond => [0, 0, -1, 1],
+            Unit::NewtonSecondPerMetre => [1, 0, -1, 0],
+            Unit::NewtonSecond => [1, 1, -1, 0],
             Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
         }
     }
@@ -77,6 +83,8 @@ pub enum ParamKey {
     Viscous,
     Restitution(usize),
     ChatterEps(usize),
+    StopStiffness(usize),
+    StopDamping(usize),
     StopGap(usize),
     StopPosition(usize),
     SensorPosition(usize),
@@ -98,6 +106,7 @@ impl ParamKey {
     pub fn get(&self, scene: &Scene) -> f64 {
         let law = |i: usize| match scene.stops[i].law {
             StopLaw::Restitution { restitution, eps } => (restitution, eps),
+            StopLaw::SpringDashpot { k, c } => (k, c),
         };
         let load = |i: usize| match &scene.loads[i] {
             Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
@@ -115,6 +124,8 @@ impl ParamKey {
             ParamKey::Viscous => damping.and_then(|d| d.viscous).unwrap_or(0.0),
             ParamKey::Restitution(i) => law(i).0,
             ParamKey::ChatterEps(i) => law(i).1,
+            ParamKey::StopStiffness(i) => law(i).0,
+            ParamKey::StopDamping(i) => law(i).1,
             ParamKey::StopGap(i) => scene.stops[i].gap,
             ParamKey::StopPosition(i) => scene.stops[i].x.unwrap_or(0.0),
             ParamKey::SensorPosition(i) => scene.sensors[i].x.unwrap_or(0.0),
@@ -133,6 +144,7 @@ impl ParamKey {
         let n = scene.n_modes();
         let law = |s: &'a mut crate::scene::Stop| match &mut s.law {
             StopLaw::Restitution { restitution, eps } => (restitution, eps),
+            StopLaw::SpringDashpot { k, c } => (k, c),
         };
         match *self {
             ParamKey::LoadAmplitude(i) => load_fields(&mut scene.loads[i]).0,
@@ -143,6 +155,8 @@ impl ParamKey {
             ParamKey::Viscous => scene.damping.get_or_insert_with(Default::default).viscous.get_or_insert(0.0),
             ParamKey::Restitution(i) => law(&mut scene.stops[i]).0,
             ParamKey::ChatterEps(i) => law(&mut scene.stops[i]).1,
+            ParamKey::StopStiffness(i) => law(&mut scene.stops[i]).0,
+            ParamKey::StopDamping(i) => law(&mut scene.stops[i]).1,
             ParamKey::StopGap(i) => &mut scene.stops[i].gap,
             ParamKey::StopPosition(i) => scene.stops[i].x.get_or_insert(0.0),
             ParamKey::SensorPosition(i) => scene.sensors[i].x.get_or_insert(0.0),
@@ -195,6 +209,12 @@ pub enum OutputKey {
     StopLastImpact(usize),
     StopSticking(usize),
     StopReaction(usize),
+    StopForce(usize),
+    StopPenetration(usize),
+    StopContact(usize),
+    StopImpulse(usize),
+    StopStoredEnergy(usize),
+    StopDissipatedEnergy(usize),
     SensorDisplacement(usize),
     SensorVelocity(usize),
     SensorMoment(usize),
@@ -273,6 +293,8 @@ pub struct Limits {
 /// Largest modal damping ratio (heavily over-damped modes stay exact, but
 /// beyond this nothing moves within any useful horizon).
 pub const MAX_ZETA: f64 = 1e3;
+/// The stiffest compliant stop, relative to `m omega_low^2`.
+pub const MAX_STOP_STIFFNESS_RATIO: f64 = 1e14;
 /// The fastest load, relative to the highest natural frequency.
 pub const MAX_LOAD_FREQUENCY_RATIO: f64 = 1e3;
 /// The largest displacement, relative to the structure's length.
@@ -346,6 +368,21 @@ impl Limits {
 
     pub fn zeta_range(&self) -> Range {
         Range::closed(0.0, MAX_ZETA)
+    }
+
+    /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness
+    /// `m omega_low^2` of the slowest mode (seed 001's hardest case, kappa =
+    /// 1e4, is about 1e-10 of it): beyond, the contact phase's frequency
+    /// would exceed the slowest mode's by 1e7 and the penetration drown in
+    /// the rounding of the deflection.
+    pub fn stop_stiffness_range(&self) -> Range {
+        Range::closed(0.0, MAX_STOP_STIFFNESS_RATIO * self.mass * self.omega_low * self.omega_low)
+    }
+
+    /// Stop damping: up to the critical damping of the whole mass on the
+    /// highest mode's frequency, times `MAX_ZETA`.
+    pub fn stop_damping_range(&self) -> Range {
+        Range::closed(0.0, 2.0 * MAX_ZETA * self.mass * self.omega_high)
     }
 
     /// Viscous damping per length giving at most `MAX_ZETA` in the slowest mode.
@@ -448,6 +485,26 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
                     true,
                 );
             }
+            StopLaw::SpringDashpot { .. } => {
+                push(
+                    ParamKey::StopStiffness(i),
+                    named(n, s, "k"),
+                    format!("stops[{i}].law.k"),
+                    format!("Stiffness of the compliant stop '{s}' (force k p + c p', p the penetration)"),
+                    Unit::NewtonPerMetre,
+                    limits.stop_stiffness_range(),
+                    true,
+                );
+                push(
+                    ParamKey::StopDamping(i),
+                    named(n, s, "c"),
+                    format!("stops[{i}].law.c"),
+                    format!("Damping of the compliant stop '{s}' (the stop pushes, never pulls)"),
+                    Unit::NewtonSecondPerMetre,
+                    limits.stop_damping_range(),
+                    true,
+                );
+            }
         }
         push(
             ParamKey::StopGap(i),
@@ -524,23 +581,58 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
         let (n, s) = (&stop.names, &stop.name);
         push(OutputKey::StopDisplacement(i), named(n, s, "w"), format!("Displacement at stop '{s}'"), Unit::Metre, real, false);
         push(OutputKey::StopVelocity(i), named(n, s, "v"), format!("Velocity at stop '{s}'"), Unit::MetrePerSecond, real, false);
-        push(OutputKey::StopImpacts(i), named(n, s, "impacts"), format!("Number of impacts at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
+        match stop.law {
+            StopLaw::Restitution { .. } => {
+                push(OutputKey::StopImpacts(i), named(n, s, "impacts"), format!("Number of impacts at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
+                push(
+                    OutputKey::StopLastImpact(i),
+                    named(n, s, "t_last_impact"),
+                    format!("Exact time of the latest impact at stop '{s}' (the start time before the first)"),
+                    Unit::Second,
+                    real,
+                    true,
+                );
+                push(OutputKey::StopSticking(i), named(n, s, "sticking"), format!("Whether the structure is stuck to stop '{s}'"), Unit::One, OutputType::Boolean, true);
+                push(
+                    OutputKey::StopReaction(i),
+                    named(n, s, "lambda"),
+                    format!("Reaction of stop '{s}' while sticking (seed 000 eq. 33; <= 0 for a stop on the +w side), else 0"),
+                    Unit::Newton,
+                    real,
+                    false,
+                );
+            }
+            StopLaw::SpringDashpot { .. } => {
+                push(OutputKey::StopForce(i), named(n, s, "force"), format!("Force of stop '{s}', max(0, k p + c p') while in contact (>= 0, pushing the structure away)"), Unit::Newton, real, false);
+                push(OutputKey::StopPenetration(i), named(n, s, "penetration"), format!("Penetration p of stop '{s}' (negative: the clearance left)"), Unit::Metre, real, false);
+                push(OutputKey::StopContact(i), named(n, s, "contact"), format!("Whether stop '{s}' pushes (in contact)"), Unit::One, OutputType::Boolean, true);
+                push(OutputKey::StopImpacts(i), named(n, s, "contacts"), format!("Number of contact onsets at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
+                push(
+                    OutputKey::StopLastImpact(i),
+                    named(n, s, "t_last_contact"),
+                    format!("Exact time of the latest contact onset at stop '{s}' (the start time before the first)"),
+                    Unit::Second,
+                    real,
+                    true,
+                );
+                push(OutputKey::StopStoredEnergy(i), named(n, s, "E_stored"), format!("Elastic energy stored in stop '{s}', k p^2 / 2 in contact"), Unit::Joule, real, false);
+                push(
+                    OutputKey::StopDissipatedEnergy(i),
+                    named(n, s, "E_dissipated"),
+                    format!("Energy dissipated in stop '{s}' since the start (its dashpot, and the spring energy left when contact ends inside the surface)"),
+                    Unit::Joule,
+                    real,
+                    false,
+                );
+            }
+        }
         push(
-            OutputKey::StopLastImpact(i),
-            named(n, s, "t_last_impact"),
-            format!("Exact time of the latest impact at stop '{s}' (the start time before the first)"),
-            Unit::Second,
+            OutputKey::StopImpulse(i),
+            named(n, s, "impulse"),
+            format!("Impulse stop '{s}' delivered over the last communication step (>= 0, pushing the structure away: -side w direction), exact"),
+            Unit::NewtonSecond,
             real,
             true,
-        );
-        push(OutputKey::StopSticking(i), named(n, s, "sticking"), format!("Whether the structure is stuck to stop '{s}'"), Unit::One, OutputType::Boolean, true);
-        push(
-            OutputKey::StopReaction(i),
-            named(n, s, "lambda"),
-            format!("Reaction of stop '{s}' while sticking (seed 000 eq. 33; <= 0 for a stop on the +w side), else 0"),
-            Unit::Newton,
-            real,
-            false,
         );
     }
     for (i, sensor) in scene.sensors.iter().enumerate() {
@@ -620,12 +712,18 @@ impl OutputKey {
         let model = sim.model();
         let scale = model.coordinate_scale;
         match *self {
-            OutputKey::StopDisplacement(i) => Value::Real(model.stops[i].w.dot(&c.q)),
-            OutputKey::StopVelocity(i) => Value::Real(model.stops[i].w.dot(&c.qd)),
+            OutputKey::StopDisplacement(i) => Value::Real(model.stops[i].geometry.w.dot(&c.q)),
+            OutputKey::StopVelocity(i) => Value::Real(model.stops[i].geometry.w.dot(&c.qd)),
             OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
             OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
             OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
             OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
+            OutputKey::StopForce(i) => Value::Real(sim.stop_force(i)),
+            OutputKey::StopPenetration(i) => Value::Real(model.stops[i].geometry.penetration(&c.q)),
+            OutputKey::StopContact(i) => Value::Boolean(sim.contact(i) == crate::contact::Contact::Pressed),
+            OutputKey::StopImpulse(i) => Value::Real(sim.last_impulse(i)),
+            OutputKey::StopStoredEnergy(i) => Value::Real(sim.stop_stored_energy(i)),
+            OutputKey::StopDissipatedEnergy(i) => Value::Real(sim.stop_dissipated_energy(i)),
             OutputKey::SensorDisplacement(i) => Value::Real(model.sensors[i].w.dot(&c.q)),
             OutputKey::SensorVelocity(i) => Value::Real(model.sensors[i].w.dot(&c.qd)),
             OutputKey::SensorMoment(i) => Value::Real(model.sensors[i].moment.as_ref().map_or(0.0, |m| m.dot(&c.q))),

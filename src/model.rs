@@ -8,32 +8,16 @@
 use nalgebra::DVector;
 
 use crate::scene::{ActuatorKind, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
-use crate::solve::{Functional, ModalForcing, ModalState, Oscillator, C64};
+use crate::contact::{Geometry, Law, Restitution, SpringDashpot};
+use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
 use crate::structure::{Beam, Chain, Point, Structure, Support};
 
-/// A rigid stop acting on one point of the structure.
+/// A stop acting on one point of the structure.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StopModel {
     pub name: String,
-    /// `w_j = W_j(x_stop)`: the stop's displacement is `w . q`.
-    pub w: DVector<f64>,
-    pub gap: f64,
-    /// +1: limits `w . q <= gap`; -1: limits `w . q >= -gap`.
-    pub side: f64,
-    pub restitution: f64,
-    pub chatter_eps: f64,
-}
-
-impl StopModel {
-    /// The value of `w . q` while in contact.
-    pub fn target(&self) -> f64 {
-        self.side * self.gap
-    }
-
-    /// The gap function `side (target - w . q)`, non-negative when admissible.
-    pub fn gap_functional(&self) -> Functional {
-        Functional::of_position(self.gap, -&self.w * self.side)
-    }
+    pub geometry: Geometry,
+    pub law: Law,
 }
 
 /// A measuring point: displacement `w . q`, bending moment `m . q`.
@@ -142,18 +126,15 @@ impl Model {
                     s.at()
                 )));
             }
-            let StopLaw::Restitution { restitution, eps } = s.law;
-            stops.push(StopModel {
-                name: s.name.clone(),
-                w,
-                gap: s.gap,
-                side: match s.side {
-                    Side::Positive => 1.0,
-                    Side::Negative => -1.0,
-                },
-                restitution,
-                chatter_eps: eps,
-            });
+            let law = match s.law {
+                StopLaw::Restitution { restitution, eps } => Law::Restitution(Restitution { restitution, chatter_eps: eps }),
+                StopLaw::SpringDashpot { k, c } => Law::SpringDashpot(SpringDashpot { k, c }),
+            };
+            let side = match s.side {
+                Side::Positive => 1.0,
+                Side::Negative => -1.0,
+            };
+            stops.push(StopModel { name: s.name.clone(), geometry: Geometry { w, gap: s.gap, side }, law });
         }
         let sensors = scene
             .sensors

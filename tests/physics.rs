@@ -71,7 +71,7 @@ fn energy_lost_per_impact_is_the_restitution_formula() {
     // pre-impact state read just before each impact.
     let scene = free_vibration(0.6);
     let model = Model::build(&scene).unwrap();
-    let w = model.stops[0].w.clone();
+    let w = model.stops[0].geometry.w.clone();
     let mut s = sim(&scene);
     s.advance_to(3.0).unwrap();
     let times = impact_times(&mut s);
@@ -102,11 +102,11 @@ fn every_impact_puts_the_contact_point_exactly_on_the_stop() {
     let times = impact_times(&mut s);
     assert!(times.len() > 20);
     let model = Model::build(&scene).unwrap();
-    let w = &model.stops[0].w;
+    let w = &model.stops[0].geometry.w;
     let mut replay = sim(&scene);
     for &t in &times {
         replay.advance_to(t).unwrap();
-        let miss = w.dot(&replay.current().q) - model.stops[0].target();
+        let miss = w.dot(&replay.current().q) - model.stops[0].geometry.target();
         assert!(miss.abs() < 1e-14, "w(x_stop) - d = {miss:e} at the impact at t = {t}");
     }
 }
@@ -116,7 +116,7 @@ fn every_impact_puts_the_contact_point_exactly_on_the_stop() {
 /// on the `omega^2 q + 2 zeta omega qd` term; eq. 32 fixes it.)
 fn seed_reaction(model: &Model, t: f64, q: &DVector<f64>, qd: &DVector<f64>) -> f64 {
     let (f_amp, omega) = (76.8, 0.1 * PI * PI);
-    let w = &model.stops[0].w;
+    let w = &model.stops[0].geometry.w;
     let mut num_f = 0.0;
     let mut num_state = 0.0;
     for j in 0..model.n_modes() {
@@ -133,7 +133,7 @@ fn seed_reaction(model: &Model, t: f64, q: &DVector<f64>, qd: &DVector<f64>) -> 
 fn sticking_holds_the_constraint_and_a_compressive_reaction_equal_to_eq_33() {
     let scene = pinned_scene();
     let model = Model::build(&scene).unwrap();
-    let w = model.stops[0].w.clone();
+    let w = model.stops[0].geometry.w.clone();
     let mut s = sim(&scene);
     let mut stuck_samples = 0;
     for k in 0..=2000 {

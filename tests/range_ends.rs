@@ -23,9 +23,9 @@ fn check_sane(sim: &Simulation, what: &str) {
     assert!(c.q.iter().chain(c.qd.iter()).all(|x| x.is_finite()), "{what}: non-finite state");
     assert!(sim.energy().is_finite(), "{what}: energy {}", sim.energy());
     for s in &sim.model().stops {
-        let y = s.w.dot(&c.q);
-        let scale = s.gap.abs() + s.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-        let penetration = s.side * (y - s.target());
+        let y = s.geometry.w.dot(&c.q);
+        let scale = s.geometry.gap.abs() + s.geometry.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        let penetration = s.geometry.side * (y - s.geometry.target());
         assert!(penetration <= 1e-9 * scale.max(1e-300), "{what}: stop '{}' penetrated by {penetration:e}", s.name);
     }
 }

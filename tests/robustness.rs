@@ -7,6 +7,7 @@
 mod common;
 
 use beamstop::interface::ParamKey;
+use beamstop::contact::Contact;
 use beamstop::sim::SimState;
 use beamstop::{EventKind, Model, Scene, SimError, Simulation};
 
@@ -56,7 +57,7 @@ fn a_vanishing_load_frequency_does_not_crawl() {
         let mut sim = start(&with(common::scene("pinned_beam"), &[(ParamKey::LoadOmega(0), omega)]));
         sim.advance_to(10.0).unwrap_or_else(|e| panic!("omega = {omega}: {e}"));
         assert!(sim.stats().probes < 10_000, "omega = {omega}: {} search points", sim.stats().probes);
-        let w = sim.model().stops[0].w.dot(&sim.current().q);
+        let w = sim.model().stops[0].geometry.w.dot(&sim.current().q);
         assert!(w.abs() < 1e-12, "omega = {omega}: left the stop, w = {w}");
     }
 }
@@ -69,7 +70,7 @@ fn grazing_from_rest() {
     let mut sim = start(&away);
     sim.advance_to(3.0).unwrap();
     assert!(sim.state().stops[0].impacts == 0 && !sim.is_stuck(0));
-    let w = sim.model().stops[0].w.dot(&sim.current().q);
+    let w = sim.model().stops[0].geometry.w.dot(&sim.current().q);
     assert!(w < -1e-3, "did not leave: w = {w}");
     let toward = common::scene("pinned_beam");
     let mut sim = start(&toward);
@@ -128,14 +129,14 @@ fn restored_states_are_validated() {
     corrupt("NaN last impact", &|s| s.stops[0].last_impact = f64::NAN, "last impact");
     corrupt("future impact", &|s| s.stops[0].last_impact = 5.0, "after the time");
     corrupt("times out of order", &|s| s.scan = s.time - 0.5, "out of order");
-    corrupt("stuck at a missing stop", &|s| s.stuck |= 1 << 5, "does not exist");
-    corrupt("departing a missing stop", &|s| s.departing |= 1 << 63, "does not exist");
-    corrupt("stuck flag cleared", &|s| s.stuck = 0, "away from the motion");
+    corrupt("a rigid stop pressed like a compliant one", &|s| s.stops[0].contact = Contact::Pressed, "a state its law does not have");
+    corrupt("departing a function not watched", &|s| s.stops[0].departing[1] = true, "departing flag 2");
+    corrupt("stuck flag cleared", &|s| s.stops[0].contact = Contact::Open, "away from the motion");
     corrupt(
         "stuck flag cleared, anchored now, treated as leaving",
         &|s| {
-            s.stuck = 0;
-            s.departing = 1;
+            s.stops[0].contact = Contact::Open;
+            s.stops[0].departing = [true, false];
             s.anchor = s.current.clone();
             s.anchor_time = s.time;
             s.scan = s.time;
@@ -146,7 +147,7 @@ fn restored_states_are_validated() {
     corrupt(
         "through the stop",
         &|s| {
-            s.stuck = 0;
+            s.stops[0].contact = Contact::Open;
             s.current.q[0] += 0.1;
             s.anchor = s.current.clone();
             s.anchor_time = s.time;
@@ -159,7 +160,7 @@ fn restored_states_are_validated() {
     let mut free = Simulation::new(Model::build(&with(scene.clone(), &[(ParamKey::StopGap(0), 0.5)])).unwrap(), 0.0).unwrap();
     free.advance_to(0.3).unwrap();
     let mut st = free.state().clone();
-    st.stuck = 1;
+    st.stops[0].contact = Contact::Held;
     st.anchor = st.current.clone();
     st.anchor_time = st.time;
     st.scan = st.time;

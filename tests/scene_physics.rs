@@ -117,7 +117,7 @@ fn clearance_and_simultaneous_impacts_conserve_energy_with_r_one() {
     }"#;
     let scene = Scene::from_json(base).unwrap();
     let model = Model::build(&scene).unwrap();
-    let w = model.stops[0].w.clone();
+    let w = model.stops[0].geometry.w.clone();
     let mut sim = Simulation::new(model, 0.0).unwrap();
     let e0 = sim.energy();
     for k in 1..=1000 {

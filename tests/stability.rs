@@ -89,12 +89,12 @@ impl Watch {
         let e = self.sim.energy();
         assert!(e.is_finite());
         for (i, s) in self.sim.model().stops.iter().enumerate() {
-            let y = s.w.dot(&c.q);
-            let scale = s.gap.abs() + s.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-            let penetration = s.side * (y - s.target());
+            let y = s.geometry.w.dot(&c.q);
+            let scale = s.geometry.gap.abs() + s.geometry.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+            let penetration = s.geometry.side * (y - s.geometry.target());
             assert!(penetration <= 1e-12 * scale.max(1e-300), "stop {i} penetrated by {penetration:e} at t = {t}");
             let r = self.sim.reaction(i);
-            assert!(r.is_finite() && s.side * r <= 1e-9 * (1.0 + r.abs()), "stop {i} pulls: lambda = {r} at t = {t}");
+            assert!(r.is_finite() && s.geometry.side * r <= 1e-9 * (1.0 + r.abs()), "stop {i} pulls: lambda = {r} at t = {t}");
         }
         if let Some(b) = self.sim.energy_balance() {
             let input: f64 = b.forcing.iter().sum();

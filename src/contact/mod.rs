@@ -1,5 +1,212 @@
-//! Stop laws: what happens at a contact point when it reaches its stop.
+//! Contact laws: what a stop does to the structure, one type per law.
+//!
+//! A law owns its parameters and decides, for each contact state, what the
+//! stop adds to the phase the structure moves in ([`PhaseTerm`]), which
+//! event functions watch for the end of that state ([`Watch`]) and what a
+//! zero of one of them does ([`Switch`]). The simulation combines the stops'
+//! terms into one phase, linear time-invariant in every law here, and runs
+//! one certified event search over every watched function.
+//!
+//! Adding a law: a file here with its type and these three answers, a
+//! variant in [`Law`] (the registration below) and one in the scene schema
+//! (`crate::scene::StopLaw`).
 
 pub mod restitution;
+pub mod spring_dashpot;
 
-pub use restitution::{apply_impact, ImpactRow};
+use nalgebra::DVector;
+
+pub use restitution::{apply_impact, ImpactRow, Restitution};
+pub use spring_dashpot::SpringDashpot;
+
+use crate::solve::events::{tendency_from, Tendency};
+use crate::solve::{Functional, Jet};
+
+/// Where a stop acts and how far away it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Geometry {
+    /// `w_j = W_j(x_stop)`: the contact point's displacement is `w . q`.
+    pub w: DVector<f64>,
+    pub gap: f64,
+    /// +1: the stop limits `w . q <= gap`; -1: `w . q >= -gap`.
+    pub side: f64,
+}
+
+impl Geometry {
+    /// The value of `w . q` on the stop's surface.
+    pub fn target(&self) -> f64 {
+        self.side * self.gap
+    }
+
+    /// The gap `side (target - w . q)`, non-negative when apart.
+    pub fn gap_functional(&self) -> Functional {
+        Functional::of_position(self.gap, -&self.w * self.side)
+    }
+
+    /// The penetration `p = side w . q - gap` (minus the gap).
+    pub fn penetration(&self, q: &DVector<f64>) -> f64 {
+        self.side * self.w.dot(q) - self.gap
+    }
+
+    /// `p' = side w . qd`.
+    pub fn penetration_rate(&self, qd: &DVector<f64>) -> f64 {
+        self.side * self.w.dot(qd)
+    }
+}
+
+/// The state of one contact point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Contact {
+    /// No force; apart from the stop (or on it, leaving).
+    Open,
+    /// Held on a rigid stop (sticking): a constraint of the phase.
+    Held,
+    /// Pressed into a compliant stop: its spring and dashpot act.
+    Pressed,
+    /// Inside a compliant stop's surface without force (its dashpot would
+    /// pull): moving freely until the force turns positive again or the
+    /// point leaves the surface.
+    Penetrated,
+}
+
+impl Contact {
+    pub fn code(self) -> u8 {
+        match self {
+            Contact::Open => 0,
+            Contact::Held => 1,
+            Contact::Pressed => 2,
+            Contact::Penetrated => 3,
+        }
+    }
+
+    pub fn from_code(c: u8) -> Option<Contact> {
+        Some(match c {
+            0 => Contact::Open,
+            1 => Contact::Held,
+            2 => Contact::Pressed,
+            3 => Contact::Penetrated,
+            _ => return None,
+        })
+    }
+}
+
+/// What a stop adds to the equations of the phase.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PhaseTerm {
+    None,
+    /// `w . q = target` held by a reaction (seed 000 eqs. 29-33).
+    Constraint,
+    /// `-side w (k p + c p')`: `K += k w w^T`, `D += c w w^T`, `f += k target w`.
+    SpringDashpot { k: f64, c: f64 },
+}
+
+/// An event function of a contact state; each is non-negative while the
+/// state holds, and its zero is where the law decides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Watch {
+    /// The gap (apart: contact when it closes).
+    Gap,
+    /// The push of a held stop's reaction, `-side lambda` (release when it
+    /// would pull).
+    Reaction,
+    /// A compliant stop's force `k p + c p'` (release when it reaches 0).
+    Force,
+    /// Minus that force, while penetrated without force (re-engage).
+    NegatedForce,
+    /// The penetration, while penetrated without force (back outside).
+    Penetration,
+}
+
+/// What a zero of a watched function does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Switch {
+    /// Nothing: the function touches zero and leaves it (departing).
+    Stay,
+    /// The contact state changes without an impulse.
+    To(Contact),
+    /// A rigid impact (the simulation solves the impulses of every
+    /// simultaneous impact together).
+    Impact,
+    /// Zero velocity on a rigid stop with the load pressing on: hold.
+    Stick,
+    /// Zero velocity on a rigid stop, leaving it: no impact (recorded).
+    Graze,
+}
+
+/// A stop's contact law: the registration of every law.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Law {
+    Restitution(Restitution),
+    SpringDashpot(SpringDashpot),
+}
+
+impl Law {
+    pub fn is_rigid(&self) -> bool {
+        matches!(self, Law::Restitution(_))
+    }
+
+    pub fn term(&self, contact: Contact) -> PhaseTerm {
+        match self {
+            Law::Restitution(l) => l.term(contact),
+            Law::SpringDashpot(l) => l.term(contact),
+        }
+    }
+
+    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
+        match self {
+            Law::Restitution(l) => l.watches(contact),
+            Law::SpringDashpot(l) => l.watches(contact),
+        }
+    }
+
+    /// The law's decision at a zero of `watch` in state `contact`.
+    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, geometry: &Geometry, state: &crate::solve::ModalState) -> Switch {
+        match self {
+            Law::Restitution(l) => l.on_zero(contact, watch, jet),
+            Law::SpringDashpot(l) => l.on_zero(contact, watch, jet, geometry, state),
+        }
+    }
+
+    /// The contact state of a point at rest in `state` at the start of a run
+    /// (`None`: the state is not admissible for this law).
+    pub fn initial_contact(&self, geometry: &Geometry, state: &crate::solve::ModalState) -> Option<Contact> {
+        match self {
+            Law::Restitution(_) => Some(Contact::Open),
+            Law::SpringDashpot(l) => Some(l.initial_contact(geometry, state)),
+        }
+    }
+
+    /// The force the stop pushes with (>= 0), for a state outside a
+    /// constraint (a held stop's force is its reaction).
+    pub fn force(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState) -> f64 {
+        match (self, contact) {
+            (Law::SpringDashpot(l), Contact::Pressed) => l.force(geometry, state),
+            _ => 0.0,
+        }
+    }
+
+    /// Elastic energy stored in the stop.
+    pub fn stored_energy(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState) -> f64 {
+        match (self, contact) {
+            (Law::SpringDashpot(l), Contact::Pressed) => 0.5 * l.k * geometry.penetration(&state.q).max(0.0).powi(2),
+            _ => 0.0,
+        }
+    }
+}
+
+/// Whether a function at its zero (value within noise) is closing: its
+/// slope is negative, or zero with the next visible derivative negative
+/// (resting counts as closing when `resting_closes`).
+pub fn closing(jet: &Jet, resting_closes: bool) -> bool {
+    if jet.d[1] < -jet.noise[1] {
+        return true;
+    }
+    if jet.d[1] > jet.noise[1] {
+        return false;
+    }
+    match tendency_from(jet, 2) {
+        Tendency::Closing => true,
+        Tendency::Resting => resting_closes,
+        Tendency::Opening => false,
+    }
+}

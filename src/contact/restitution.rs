@@ -8,6 +8,74 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::{Contact, PhaseTerm, Switch, Watch};
+use crate::solve::events::{tendency_from, Tendency};
+use crate::solve::Jet;
+
+/// The rigid stop of seed 000: impacts by the restitution rule, chatter
+/// ended by the threshold `eps` (section 2.2), then sticking.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Restitution {
+    pub restitution: f64,
+    /// An impact sooner than this after the previous one of a chatter
+    /// sequence ends the chatter with `R = 0`.
+    pub chatter_eps: f64,
+}
+
+impl Restitution {
+    pub fn term(&self, contact: Contact) -> PhaseTerm {
+        match contact {
+            Contact::Held => PhaseTerm::Constraint,
+            _ => PhaseTerm::None,
+        }
+    }
+
+    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
+        match contact {
+            Contact::Held => &[Watch::Reaction],
+            _ => &[Watch::Gap],
+        }
+    }
+
+    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet) -> Switch {
+        match (contact, watch) {
+            // The reaction already pulls (after a change of load), or is
+            // about to: release. A reaction resting at zero (no load) keeps
+            // the structure held.
+            (Contact::Held, _) => {
+                if jet.d[0] < -jet.noise[0] || tendency_from(jet, 1) == Tendency::Closing {
+                    Switch::To(Contact::Open)
+                } else {
+                    Switch::Stay
+                }
+            }
+            (_, _) if jet.d[1] < -jet.noise[1] => Switch::Impact,
+            (_, _) if jet.d[1] <= jet.noise[1] => match tendency_from(jet, 2) {
+                // At rest on the stop with nothing pushing either way: held
+                // with zero reaction until a load decides.
+                Tendency::Closing | Tendency::Resting => Switch::Stick,
+                Tendency::Opening => Switch::Graze,
+            },
+            _ => Switch::Stay,
+        }
+    }
+
+    /// The coefficient an impact at time `t` uses: `R`, or 0 when it ends a
+    /// chatter sequence (sooner than `eps` after the previous impact, or
+    /// too slow for `R` times its speed to be told from rounding,
+    /// `negligible`).
+    pub fn effective(&self, t: f64, previous_impact: Option<f64>, speed: f64, negligible: f64) -> f64 {
+        let since = previous_impact.map(|p| t - p);
+        let resolution = 16.0 * f64::EPSILON * t.abs().max(f64::MIN_POSITIVE);
+        let chatter = since.is_some_and(|dt| dt < self.chatter_eps || dt <= resolution) || self.restitution * speed <= negligible;
+        if chatter {
+            0.0
+        } else {
+            self.restitution
+        }
+    }
+}
+
 /// One contact point taking part in an impact.
 #[derive(Clone, Debug)]
 pub struct ImpactRow<'a> {

@@ -10,7 +10,7 @@ use std::path::Path;
 use crate::interface::Value;
 use crate::model::Model;
 use crate::scene::Scene;
-use crate::sim::{EventKind, SimError, Simulation};
+use crate::sim::{SimError, Simulation};
 
 use super::logging::Logger;
 use super::state_machine::{Function, ModelState};
@@ -441,24 +441,8 @@ impl Instance {
             return;
         }
         let Some(sim) = self.sim.as_ref().or(self.provisional.as_ref().and_then(|p| p.as_ref().ok())) else { return };
-        let stops = &sim.model().stops;
         for e in events {
-            let name = |i: usize| stops[i].name.as_str();
-            let text = match &e.kind {
-                EventKind::Impact { stop, speed, restitution, energy_lost, chatter } => format!(
-                    "t = {:.17}: impact at stop '{}', approach speed {speed:.6e}, R = {restitution}, energy lost {energy_lost:.6e}{}",
-                    e.time,
-                    name(*stop),
-                    if *chatter { " (chatter detected: final R = 0 impact)" } else { "" }
-                ),
-                EventKind::Stick { stop, reaction } => {
-                    format!("t = {:.17}: sticking starts at stop '{}', reaction {reaction:.6e}", e.time, name(*stop))
-                }
-                EventKind::Release { stop } => {
-                    format!("t = {:.17}: release from stop '{}' (reaction changed sign)", e.time, name(*stop))
-                }
-                EventKind::Graze { stop } => format!("t = {:.17}: grazing contact at stop '{}' (zero velocity, no impact)", e.time, name(*stop)),
-            };
+            let text = e.describe(sim.model());
             self.logger.category("logEvents", &text);
         }
     }

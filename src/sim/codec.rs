@@ -13,10 +13,12 @@ use crate::solve::free::ModalJet;
 use crate::solve::functional::NOISE;
 use crate::solve::ModalState;
 
-use super::{bit, EnergyBalance, SimState, Simulation, StopState};
+use super::{EnergyBalance, SimState, Simulation, StopState};
+use crate::contact::{Contact, Law};
 
 /// Version of the encoding below; bump on any change.
-pub const STATE_VERSION: u32 = 1;
+/// 2: per-stop contact states (compliant stops), impulses, dissipation.
+pub const STATE_VERSION: u32 = 2;
 
 impl Simulation {
     /// Appends the state (not the model or the inputs: the caller stores
@@ -29,13 +31,17 @@ impl Simulation {
         w.f64(st.time);
         w.f64(st.anchor_time);
         w.modal(&st.anchor);
-        w.u64(st.stuck);
         w.f64(st.scan);
-        w.u64(st.departing);
+        w.f64(st.accounted);
         for stop in &st.stops {
+            w.u8(stop.contact.code());
+            w.u8(stop.departing[0] as u8 | (stop.departing[1] as u8) << 1);
             w.u64(stop.impacts);
             w.f64(stop.last_impact);
             w.opt_f64(stop.previous_impact);
+            w.f64(stop.impulse);
+            w.f64(stop.impulse_mark);
+            w.f64(stop.dissipated);
         }
         w.modal(&st.current);
         match &st.balance {
@@ -68,11 +74,27 @@ impl Simulation {
         let time = r.f64()?;
         let anchor_time = r.f64()?;
         let anchor = r.modal(n)?;
-        let stuck = r.u64()?;
         let scan = r.f64()?;
-        let departing = r.u64()?;
+        let accounted = r.f64()?;
         let stops = (0..n_stops)
-            .map(|_| Ok(StopState { impacts: r.u64()?, last_impact: r.f64()?, previous_impact: r.opt_f64()? }))
+            .map(|i| {
+                let code = r.u8()?;
+                let contact = Contact::from_code(code).ok_or_else(|| format!("simulation state: stops[{i}] contact state code {code} is not one of 0..=3"))?;
+                let flags = r.u8()?;
+                if flags > 3 {
+                    return Err(format!("simulation state: stops[{i}] departing flags {flags:#x} are not within 0..=3"));
+                }
+                Ok(StopState {
+                    contact,
+                    departing: [flags & 1 != 0, flags & 2 != 0],
+                    impacts: r.u64()?,
+                    last_impact: r.f64()?,
+                    previous_impact: r.opt_f64()?,
+                    impulse: r.f64()?,
+                    impulse_mark: r.f64()?,
+                    dissipated: r.f64()?,
+                })
+            })
             .collect::<Result<Vec<_>, String>>()?;
         let current = r.modal(n)?;
         let balance = if r.u8()? == 0 {
@@ -88,7 +110,7 @@ impl Simulation {
         if balance.is_some() != model.energy_balance {
             return Err("simulation state and model disagree on the energy balance".into());
         }
-        let state = SimState { time, anchor_time, anchor, stuck, scan, departing, stops, current, balance };
+        let state = SimState { time, anchor_time, anchor, scan, stops, accounted, current, balance };
         Simulation::restore_checked(model, inputs, state)
     }
 
@@ -102,7 +124,8 @@ impl Simulation {
         if state.balance.as_ref().is_some_and(|b| b.forcing.len() != model.n_modes() || b.damping.len() != model.n_modes()) {
             return Err("simulation state: energy balance does not match the model's modes".into());
         }
-        check_numbers(&state, model.stops.len())?;
+        check_numbers(&state)?;
+        check_contacts(&state, &model)?;
         let sim = Simulation::restore(model, inputs, state).map_err(|e| e.to_string())?;
         check_geometry(&sim)?;
         if !sim.certifies_up_to_scan(1000) {
@@ -131,8 +154,26 @@ fn finite_modal(field: &str, m: &ModalState) -> Result<(), String> {
     Ok(())
 }
 
-/// Finite numbers, times in order, flags naming existing stops.
-fn check_numbers(st: &SimState, n_stops: usize) -> Result<(), String> {
+/// Contact states the stops' laws can be in, departing flags naming
+/// watched functions.
+fn check_contacts(st: &SimState, model: &Model) -> Result<(), String> {
+    for (s, m) in st.stops.iter().zip(&model.stops) {
+        let allowed = match m.law {
+            Law::Restitution(_) => matches!(s.contact, Contact::Open | Contact::Held),
+            Law::SpringDashpot(_) => matches!(s.contact, Contact::Open | Contact::Pressed | Contact::Penetrated),
+        };
+        if !allowed {
+            return Err(format!("simulation state: stop '{}' is {:?}, a state its law does not have", m.name, s.contact));
+        }
+        if s.departing[1] && m.law.watches(s.contact).len() < 2 {
+            return Err(format!("simulation state: stop '{}' departing flag 2 set, but it watches one function when {:?}", m.name, s.contact));
+        }
+    }
+    Ok(())
+}
+
+/// Finite numbers, times in order.
+fn check_numbers(st: &SimState) -> Result<(), String> {
     finite("time", st.time)?;
     finite("anchor time", st.anchor_time)?;
     finite("search position", st.scan)?;
@@ -144,13 +185,14 @@ fn check_numbers(st: &SimState, n_stops: usize) -> Result<(), String> {
             st.anchor_time, st.time, st.scan
         ));
     }
-    let all = if n_stops >= 64 { u64::MAX } else { (1u64 << n_stops) - 1 };
-    for (name, mask) in [("stuck", st.stuck), ("departing", st.departing)] {
-        if mask & !all != 0 {
-            return Err(format!("simulation state: {name} flags {mask:#x} name a stop that does not exist ({n_stops} stops)"));
-        }
+    finite("accounted time", st.accounted)?;
+    if !(st.anchor_time <= st.accounted && st.accounted <= st.time) {
+        return Err(format!("simulation state: accounted time {} outside [anchor {}, time {}]", st.accounted, st.anchor_time, st.time));
     }
     for (i, s) in st.stops.iter().enumerate() {
+        finite(&format!("stops[{i}].impulse"), s.impulse)?;
+        finite(&format!("stops[{i}].impulse mark"), s.impulse_mark)?;
+        finite(&format!("stops[{i}].dissipated"), s.dissipated)?;
         finite(&format!("stops[{i}].last impact"), s.last_impact)?;
         if s.last_impact > st.time {
             return Err(format!("simulation state: stops[{i}].last impact = {} lies after the time {}", s.last_impact, st.time));
@@ -189,25 +231,44 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
     for (i, stop) in model.stops.iter().enumerate() {
         let g = &sim.gap_functionals[i];
         let jet = jets.functional(g, st.time);
-        let size = stop.gap.abs() + stop.w.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-        let vsize = stop.w.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        let geo = &stop.geometry;
+        let size = geo.gap.abs() + geo.w.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        let vsize = geo.w.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
         let level = (NOISE * size).max(tol);
         let name = &stop.name;
+        let contact = st.stops[i].contact;
+        if let Law::SpringDashpot(l) = &stop.law {
+            let p = -jet.d[0];
+            let force = l.k * p + l.c * geo.penetration_rate(&st.current.qd);
+            let force_level = l.k * level + l.c * NOISE * vsize;
+            let bad = match contact {
+                Contact::Open => p > level,
+                Contact::Pressed => force < -force_level,
+                Contact::Penetrated => p < -level || force > force_level,
+                Contact::Held => true,
+            };
+            if bad {
+                return Err(format!(
+                    "simulation state: stop '{name}' is {contact:?} with penetration {p:e} and force {force:e} (rounding level {level:e})"
+                ));
+            }
+            continue;
+        }
         if jet.d[0] < -level {
             return Err(format!("simulation state: stop '{name}' is penetrated by {:e} (allowed {level:e})", -jet.d[0]));
         }
-        if st.stuck & bit(i) != 0 {
+        if contact == Contact::Held {
             if jet.d[0].abs() > level || jet.d[1].abs() > NOISE * vsize.max(f64::MIN_POSITIVE) * 1e3 {
                 return Err(format!(
                     "simulation state: stuck to stop '{name}' but {:e} away from it moving at {:e} along it",
                     jet.d[0], jet.d[1]
                 ));
             }
-            let pushes = -stop.side * sim.reaction(i);
+            let pushes = -geo.side * sim.reaction(i);
             if pushes < -1e-9 * (1.0 + pushes.abs()) {
                 return Err(format!("simulation state: stuck to stop '{name}' with a pulling reaction {}", sim.reaction(i)));
             }
-        } else if st.departing & bit(i) != 0 && jet.d[0] <= level {
+        } else if st.stops[i].departing[0] && jet.d[0] <= level {
             // On the stop and treated as leaving it: it must not be pressed in.
             let closing = jet.d[1] < -jet.noise[1].max(NOISE * vsize) || (jet.d[1] <= jet.noise[1] && tendency_from(&jet, 2) == Tendency::Closing);
             if closing {
@@ -217,17 +278,6 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
                 ));
             }
         }
-    }
-    // The current state lies on the segment from the anchor.
-    let mut on_segment = ModalState::zeros(model.n_modes());
-    sim.state_at(st.time, &mut on_segment);
-    let scale = st.current.q.amax().max(on_segment.q.amax()) + st.current.qd.amax().max(on_segment.qd.amax());
-    let off = (&st.current.q - &on_segment.q).amax().max((&st.current.qd - &on_segment.qd).amax());
-    if off > 1e-9 * scale.max(f64::MIN_POSITIVE) {
-        return Err(format!(
-            "simulation state: the current state is {off:e} away from the motion its anchor gives at t = {} (scale {scale:e})",
-            st.time
-        ));
     }
     // The current state lies on the segment from the anchor.
     let mut on_segment = ModalState::zeros(model.n_modes());

@@ -17,12 +17,13 @@ mod codec;
 pub use codec::STATE_VERSION;
 
 use crate::contact::restitution::{apply_impact, energy_loss, ImpactRow};
+use crate::contact::{Contact, Law, PhaseTerm, Switch, Watch};
 use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
 use crate::solve::functional::NOISE;
 use crate::solve::lti::{CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
-use crate::solve::{DerivativeBounds, FreeDynamics, FreeSegment, Functional, Jet, ModalState};
+use crate::solve::{DerivativeBounds, FreeDynamics, FreeSegment, Functional, Jet, ModalForcing, ModalState};
 
 /// What happened at an event.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,6 +37,11 @@ pub enum EventKind {
     Release { stop: usize },
     /// The beam touched `stop` with zero velocity and left without impact.
     Graze { stop: usize },
+    /// A compliant stop starts pushing (`speed`: the approach speed).
+    Contact { stop: usize, speed: f64 },
+    /// A compliant stop's force reached zero; `penetration` is left over
+    /// (non-zero only with a dashpot).
+    Separation { stop: usize, penetration: f64 },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -44,9 +50,42 @@ pub struct Event {
     pub kind: EventKind,
 }
 
+impl Event {
+    /// The stop the event happened at.
+    pub fn stop(&self) -> usize {
+        match self.kind {
+            EventKind::Impact { stop, .. }
+            | EventKind::Stick { stop, .. }
+            | EventKind::Release { stop }
+            | EventKind::Graze { stop }
+            | EventKind::Contact { stop, .. }
+            | EventKind::Separation { stop, .. } => stop,
+        }
+    }
+
+    /// One line for a log, naming the stop as the model does.
+    pub fn describe(&self, model: &Model) -> String {
+        let t = self.time;
+        let name = model.stops[self.stop()].name.as_str();
+        match &self.kind {
+            EventKind::Impact { speed, restitution, energy_lost, chatter, .. } => format!(
+                "t = {t:.17}: impact at stop '{name}', approach speed {speed:.6e}, R = {restitution}, energy lost {energy_lost:.6e}{}",
+                if *chatter { " (chatter detected: final R = 0 impact)" } else { "" }
+            ),
+            EventKind::Stick { reaction, .. } => format!("t = {t:.17}: sticking starts at stop '{name}', reaction {reaction:.6e}"),
+            EventKind::Release { .. } => format!("t = {t:.17}: release from stop '{name}' (reaction changed sign)"),
+            EventKind::Graze { .. } => format!("t = {t:.17}: grazing contact at stop '{name}' (zero velocity, no impact)"),
+            EventKind::Contact { speed, .. } => format!("t = {t:.17}: contact starts at stop '{name}', approach speed {speed:.6e}"),
+            EventKind::Separation { penetration, .. } => {
+                format!("t = {t:.17}: contact ends at stop '{name}' (force zero), penetration left {penetration:.6e}")
+            }
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub enum SimError {
-    /// The initial state lies beyond a stop.
+    /// The initial state lies beyond a rigid stop.
     Penetration { stop: String, displacement: f64, limit: f64, side: f64 },
     /// More events than allowed inside one call to `advance_to`.
     TooManyEvents { time: f64, count: u64 },
@@ -95,15 +134,26 @@ impl From<LtiError> for SimError {
     }
 }
 
-/// Counters of one stop.
+/// The contact state and counters of one stop.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StopState {
+    pub contact: Contact,
+    /// Per watched function of the contact state: put on its boundary by
+    /// the event handling at `scan` and leaving it.
+    pub departing: [bool; 2],
+    /// Impacts (rigid) or contact onsets (compliant) since the start.
     pub impacts: u64,
-    /// Time of the latest impact (the start time before the first).
+    /// Time of the latest impact or onset (the start time before the first).
     pub last_impact: f64,
     /// Time of the previous impact of the current chatter sequence, reset
     /// when the stop sticks or releases.
     pub previous_impact: Option<f64>,
+    /// Impulse the stop delivered up to the anchor (pushing away from it).
+    pub impulse: f64,
+    /// The impulse total when the last advance began.
+    pub impulse_mark: f64,
+    /// Energy dissipated in the stop up to `SimState::accounted`.
+    pub dissipated: f64,
 }
 
 /// Everything that evolves; with the model and inputs it determines the
@@ -113,14 +163,12 @@ pub struct SimState {
     pub time: f64,
     pub anchor_time: f64,
     pub anchor: ModalState,
-    /// Bit i set: the beam is stuck to stop i.
-    pub stuck: u64,
     /// The event search has proven the segment event-free up to here.
     pub scan: f64,
-    /// Bit i set: stop i's event function was put on its boundary by the
-    /// event handling at `scan` and is leaving it.
-    pub departing: u64,
+    /// Contact state and counters of each stop.
     pub stops: Vec<StopState>,
+    /// The stops' dissipation covers the run up to here.
+    pub accounted: f64,
     /// The state at `time`.
     pub current: ModalState,
     /// Seed 003's energy accounting, when the model asks for it.
@@ -140,22 +188,33 @@ pub struct EnergyBalance {
     pub time: f64,
 }
 
+/// One watched event function: its stop, its slot among the stop's
+/// watches, and what it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Channel {
+    stop: usize,
+    slot: usize,
+    watch: Watch,
+}
+
 #[derive(Clone, Debug)]
 enum Segment {
     Free {
         segment: FreeSegment,
-        /// Each stop's gap at the anchor: exactly 0 for a stop the event
-        /// handling just put on its boundary (impact, release), so that the
-        /// gap along the segment is that plus an increment accurate relative
-        /// to itself.
-        anchor_gaps: Vec<f64>,
+        /// Each channel's function, and its value at the anchor: exactly 0
+        /// for a function the event handling just put on its boundary, so
+        /// that (for displacement-only functions) the value along the
+        /// segment is that plus an increment accurate relative to itself.
+        functions: Vec<(Functional, f64)>,
     },
     Coupled {
         system: Arc<CoupledSystem>,
+        /// The loads of the phase (compliant stops' preload included).
+        forcing: ModalForcing,
         segment: CoupledSegment,
-        /// Event function of each stop in this segment's coordinates.
+        /// Each channel's function in this segment's coordinates.
         events: Vec<ProjectedFunctional>,
-        /// The reaction (seed eq. 33) of each stuck stop.
+        /// The reaction (seed eq. 33) of each held stop.
         reactions: Vec<Option<Functional>>,
     },
 }
@@ -168,8 +227,10 @@ pub struct Simulation {
     inputs: Vec<f64>,
     state: SimState,
     segment: Segment,
+    /// The event functions of the current phase.
+    channels: Vec<Channel>,
     gap_functionals: Vec<Functional>,
-    coupled_cache: HashMap<u64, Arc<CoupledSystem>>,
+    coupled_cache: HashMap<Vec<Contact>, Arc<CoupledSystem>>,
     /// Longest interval over which the event search bounds derivatives.
     tau_max: f64,
     record_events: bool,
@@ -194,36 +255,43 @@ pub struct Stats {
 /// `FreeSegment::fill_bounds`).
 const TAU_MAX_PERIODS: f64 = 4.0;
 
-fn bit(i: usize) -> u64 {
-    1u64 << i
-}
-
 impl Simulation {
     /// Starts a run at `start_time` from the model's initial state. A state
     /// at rest on a stop with the load pushing into it starts stuck.
     pub fn new(model: Model, start_time: f64) -> Result<Self, SimError> {
         let initial = model.initial.clone();
+        let mut stops = Vec::new();
         for s in &model.stops {
-            let g = s.gap_functional();
+            let g = s.geometry.gap_functional();
             let value = g.offset + g.q.dot(&initial.q);
             let scale = g.offset.abs() + g.q.iter().zip(initial.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-            if value < -(crate::solve::functional::NOISE * scale).max(model.event_tolerance) {
+            if s.law.is_rigid() && value < -(crate::solve::functional::NOISE * scale).max(model.event_tolerance) {
                 return Err(SimError::Penetration {
                     stop: s.name.clone(),
-                    displacement: s.w.dot(&initial.q),
-                    limit: s.target(),
-                    side: s.side,
+                    displacement: s.geometry.w.dot(&initial.q),
+                    limit: s.geometry.target(),
+                    side: s.geometry.side,
                 });
             }
+            let contact = s.law.initial_contact(&s.geometry, &initial).unwrap_or(Contact::Open);
+            stops.push(StopState {
+                contact,
+                departing: [false; 2],
+                impacts: if contact == Contact::Pressed { 1 } else { 0 },
+                last_impact: start_time,
+                previous_impact: None,
+                impulse: 0.0,
+                impulse_mark: 0.0,
+                dissipated: 0.0,
+            });
         }
         let state = SimState {
             time: start_time,
             anchor_time: start_time,
             anchor: initial.clone(),
-            stuck: 0,
             scan: start_time,
-            departing: 0,
-            stops: model.stops.iter().map(|_| StopState { impacts: 0, last_impact: start_time, previous_impact: None }).collect(),
+            stops,
+            accounted: start_time,
             current: initial,
             balance: model.energy_balance.then(|| EnergyBalance {
                 forcing: vec![0.0; model.n_modes()],
@@ -243,15 +311,16 @@ impl Simulation {
     /// else is derived from the model, the inputs and the state.
     pub fn restore(model: Model, inputs: Vec<f64>, state: SimState) -> Result<Self, SimError> {
         let dynamics = FreeDynamics::new(model.oscillators.clone(), model.forcing_with_inputs(&inputs));
-        let gap_functionals = model.stops.iter().map(|s| s.gap_functional()).collect();
+        let gap_functionals = model.stops.iter().map(|s| s.geometry.gap_functional()).collect();
         let tau_max = TAU_MAX_PERIODS * model.shortest_period();
-        let segment = Segment::Free { segment: FreeSegment::new(&dynamics, state.anchor_time, &state.anchor), anchor_gaps: Vec::new() };
+        let segment = Segment::Free { segment: FreeSegment::new(&dynamics, state.anchor_time, &state.anchor), functions: Vec::new() };
         let mut sim = Simulation {
             model,
             dynamics,
             inputs,
             state,
             segment,
+            channels: Vec::new(),
             gap_functionals,
             coupled_cache: HashMap::new(),
             tau_max,
@@ -289,7 +358,11 @@ impl Simulation {
     }
 
     pub fn is_stuck(&self, stop: usize) -> bool {
-        self.state.stuck & bit(stop) != 0
+        self.state.stops[stop].contact == Contact::Held
+    }
+
+    pub fn contact(&self, stop: usize) -> Contact {
+        self.state.stops[stop].contact
     }
 
     /// Keep (default) or drop the record of events.
@@ -328,6 +401,8 @@ impl Simulation {
         let mut f = DVector::zeros(n);
         let mut forcing = vec![0.0; n];
         let mut damping = vec![0.0; n];
+        let mut into_stops = 0.0;
+        let pressed: Vec<usize> = (0..self.model.stops.len()).filter(|&i| self.state.stops[i].contact == Contact::Pressed).collect();
         // qd_j f_j and qd_j^2 oscillate at up to twice the fastest frequency.
         crate::solve::quadrature::for_each_node_band_limited(from, t, 2.0 * fastest, |tau, w| {
             self.state_at(tau, &mut st);
@@ -337,13 +412,143 @@ impl Simulation {
                 forcing[j] += w * st.qd[j] * f[j];
                 damping[j] += w * 2.0 * o.a * st.qd[j] * st.qd[j];
             }
+            // The work the structure does on compliant stops, F p'.
+            for &i in &pressed {
+                let s = &self.model.stops[i];
+                into_stops += w * s.law.force(Contact::Pressed, &s.geometry, &st) * s.geometry.penetration_rate(&st.qd);
+            }
         });
         let b = self.state.balance.as_mut().expect("checked above");
         for j in 0..n {
             b.forcing[j] += forcing[j];
             b.damping[j] += damping[j];
         }
+        b.impacts += into_stops;
         b.time = t;
+    }
+
+    /// Brings the balance and the compliant stops' dissipation up to `t`.
+    fn account(&mut self, t: f64) {
+        self.accumulate_balance(t);
+        self.accumulate_dissipation(t);
+    }
+
+    /// Adds the energy the dashpots of pressed stops dissipate, `c int p'^2`,
+    /// over the part of the current segment not yet counted, by quadrature
+    /// fine enough for the phase's fastest rate (exact to rounding).
+    fn accumulate_dissipation(&mut self, t: f64) {
+        let from = self.state.accounted;
+        if t <= from {
+            return;
+        }
+        self.state.accounted = t;
+        let dashpots: Vec<(usize, f64)> = (0..self.model.stops.len())
+            .filter_map(|i| match (&self.model.stops[i].law, self.state.stops[i].contact) {
+                (Law::SpringDashpot(l), Contact::Pressed) if l.c > 0.0 => Some((i, l.c)),
+                _ => None,
+            })
+            .collect();
+        let Segment::Coupled { system, .. } = &self.segment else { return };
+        if dashpots.is_empty() {
+            return;
+        }
+        let mut fastest = system.fastest();
+        for h in &self.dynamics.forcing.harmonics {
+            fastest = fastest.max(h.omega);
+        }
+        let mut st = ModalState::zeros(self.model.n_modes());
+        let mut sums = vec![0.0; dashpots.len()];
+        crate::solve::quadrature::for_each_node_band_limited(from, t, 2.0 * fastest, |tau, w| {
+            self.state_at(tau, &mut st);
+            for (k, &(i, c)) in dashpots.iter().enumerate() {
+                let v = self.model.stops[i].geometry.penetration_rate(&st.qd);
+                sums[k] += w * c * v * v;
+            }
+        });
+        for (k, &(i, _)) in dashpots.iter().enumerate() {
+            self.state.stops[i].dissipated += sums[k];
+        }
+    }
+
+    /// The impulse stop `i` delivered over the current segment, from the
+    /// anchor to `t` (state `at_t`), exact: the force is linear in the
+    /// state and the load, so its integral is linear in `int q`
+    /// ([`CoupledSegment::integral_q`]), `q(t) - q(t0)` and `int f`.
+    fn segment_impulse(&self, i: usize, t: f64, at_t: &ModalState) -> f64 {
+        let Segment::Coupled { system, forcing, segment, reactions, .. } = &self.segment else { return 0.0 };
+        let stop = &self.model.stops[i];
+        let g = &stop.geometry;
+        let span = t - self.state.anchor_time;
+        if span <= 0.0 {
+            return 0.0;
+        }
+        match (self.state.stops[i].contact, &stop.law) {
+            (Contact::Held, _) => {
+                let r = reactions[i].as_ref().expect("a held stop has a reaction");
+                let iq = segment.integral_q(system, t);
+                let mut lambda = r.q.dot(&iq) + r.offset * span;
+                if let Some(b) = &r.qd {
+                    lambda += b.dot(&(&at_t.q - &self.state.anchor.q));
+                }
+                if let Some(c) = &r.f {
+                    lambda += c.dot(&forcing.integral(self.state.anchor_time, t));
+                }
+                -g.side * lambda
+            }
+            (Contact::Pressed, Law::SpringDashpot(l)) => {
+                let iq = segment.integral_q(system, t);
+                l.k * (g.side * g.w.dot(&iq) - g.gap * span) + l.c * g.side * g.w.dot(&(&at_t.q - &self.state.anchor.q))
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// The impulse stop `i` has delivered since the start.
+    pub fn impulse_total(&self, i: usize) -> f64 {
+        self.state.stops[i].impulse + self.segment_impulse(i, self.state.time, &self.state.current)
+    }
+
+    /// The impulse stop `i` delivered during the last advance that moved
+    /// time (>= 0, pushing the structure away from the stop).
+    pub fn last_impulse(&self, i: usize) -> f64 {
+        self.impulse_total(i) - self.state.stops[i].impulse_mark
+    }
+
+    /// The force stop `i` pushes with now (>= 0): a held stop's reaction, a
+    /// pressed compliant stop's `k p + c p'`.
+    pub fn stop_force(&self, i: usize) -> f64 {
+        let s = &self.model.stops[i];
+        match self.state.stops[i].contact {
+            Contact::Held => -s.geometry.side * self.reaction(i),
+            c => s.law.force(c, &s.geometry, &self.state.current),
+        }
+    }
+
+    /// Elastic energy stored in stop `i` now.
+    pub fn stop_stored_energy(&self, i: usize) -> f64 {
+        let s = &self.model.stops[i];
+        s.law.stored_energy(self.state.stops[i].contact, &s.geometry, &self.state.current)
+    }
+
+    /// Energy dissipated in stop `i` since the start (its dashpot, and the
+    /// spring energy left when a dashpot ends contact while penetrated).
+    pub fn stop_dissipated_energy(&self, i: usize) -> f64 {
+        let mut d = self.state.stops[i].dissipated;
+        if self.state.accounted < self.state.time {
+            let mut probe = Simulation { record_events: false, scratch: None, ..self.clone() };
+            probe.accumulate_dissipation(self.state.time);
+            d = probe.state.stops[i].dissipated;
+        }
+        d
+    }
+
+    /// Closes the current segment at `t` (state `at_t`): its impulses join
+    /// the stops' totals before a new segment starts.
+    fn close_segment(&mut self, t: f64, at_t: &ModalState) {
+        for i in 0..self.model.stops.len() {
+            let p = self.segment_impulse(i, t, at_t);
+            self.state.stops[i].impulse += p;
+        }
     }
 
     /// The fastest frequency in the motion: the highest mode or load.
@@ -373,10 +578,10 @@ impl Simulation {
 
     fn reaction_at(&self, stop: usize, t: f64, state: &ModalState) -> f64 {
         match &self.segment {
-            Segment::Coupled { reactions, .. } => match &reactions[stop] {
+            Segment::Coupled { reactions, forcing, .. } => match &reactions[stop] {
                 Some(r) => {
                     let mut f = DVector::zeros(self.model.n_modes());
-                    self.dynamics.forcing.derivative(t, 0, &mut f);
+                    forcing.derivative(t, 0, &mut f);
                     r.value(state, &f)
                 }
                 None => 0.0,
@@ -393,6 +598,8 @@ impl Simulation {
         if inputs.len() != self.inputs.len() {
             panic!("{} inputs given, the model has {}", inputs.len(), self.inputs.len());
         }
+        let current = self.state.current.clone();
+        self.close_segment(self.state.time, &current);
         self.inputs.copy_from_slice(inputs);
         self.dynamics.set_forcing(self.model.forcing_with_inputs(&self.inputs));
         self.scratch = None;
@@ -405,14 +612,16 @@ impl Simulation {
         if model == self.model {
             return Ok(());
         }
-        let same_structure = model.oscillators == self.model.oscillators
+        let same_phases = model.oscillators == self.model.oscillators
             && model.stops.len() == self.model.stops.len()
-            && model.stops.iter().zip(&self.model.stops).all(|(a, b)| a.w == b.w && a.target() == b.target());
-        if !same_structure {
+            && model.stops.iter().zip(&self.model.stops).all(|(a, b)| a.geometry == b.geometry && a.law == b.law);
+        if !same_phases {
             self.coupled_cache.clear();
         }
         self.tau_max = TAU_MAX_PERIODS * model.shortest_period();
-        self.gap_functionals = model.stops.iter().map(|s| s.gap_functional()).collect();
+        self.gap_functionals = model.stops.iter().map(|s| s.geometry.gap_functional()).collect();
+        let current = self.state.current.clone();
+        self.close_segment(self.state.time, &current);
         self.model = model;
         self.dynamics = FreeDynamics::new(self.model.oscillators.clone(), self.model.forcing_with_inputs(&self.inputs));
         self.scratch = None;
@@ -422,9 +631,12 @@ impl Simulation {
     /// Starts a new segment at the current time (the loads changed) and
     /// settles what the change causes there at once (a stuck beam whose
     /// reaction now pulls is released before anyone reads the outputs).
+    /// The caller has closed the old segment's impulses.
     fn reanchor_now(&mut self) -> Result<(), SimError> {
         if self.state.anchor_time != self.state.time {
-            self.state.departing = 0;
+            for s in &mut self.state.stops {
+                s.departing = [false; 2];
+            }
         }
         self.state.anchor = self.state.current.clone();
         self.state.anchor_time = self.state.time;
@@ -433,60 +645,138 @@ impl Simulation {
         self.advance_to(self.state.time)
     }
 
-    fn coupled_system(&mut self, mask: u64) -> Result<Arc<CoupledSystem>, SimError> {
-        if let Some(s) = self.coupled_cache.get(&mask) {
+    /// The contact states that shape the phase (the key of its system).
+    fn phase_key(&self) -> Vec<Contact> {
+        self.model
+            .stops
+            .iter()
+            .zip(&self.state.stops)
+            .map(|(m, s)| match m.law.term(s.contact) {
+                PhaseTerm::None => Contact::Open,
+                _ => s.contact,
+            })
+            .collect()
+    }
+
+    /// The coupled system of a phase: `K = diag(omega^2) + sum k w w^T`,
+    /// `D = diag(2 zeta omega) + sum c w w^T` over pressed compliant stops,
+    /// constrained by the held rigid ones.
+    fn coupled_system(&mut self, key: &[Contact]) -> Result<Arc<CoupledSystem>, SimError> {
+        if let Some(s) = self.coupled_cache.get(key) {
             return Ok(s.clone());
         }
         let n = self.model.n_modes();
-        let k = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega)));
-        let d = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(n, self.model.oscillators.iter().map(|o| 2.0 * o.a)));
-        let cols: Vec<DVector<f64>> =
-            self.model.stops.iter().enumerate().filter(|(i, _)| mask & bit(*i) != 0).map(|(_, s)| s.w.clone()).collect();
-        let w = nalgebra::DMatrix::from_columns(&cols);
+        let mut k = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega)));
+        let mut d = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(n, self.model.oscillators.iter().map(|o| 2.0 * o.a)));
+        let mut cols: Vec<DVector<f64>> = Vec::new();
+        for (stop, &contact) in self.model.stops.iter().zip(key) {
+            let w = &stop.geometry.w;
+            match stop.law.term(contact) {
+                PhaseTerm::None => {}
+                PhaseTerm::Constraint => cols.push(w.clone()),
+                PhaseTerm::SpringDashpot { k: ks, c } => {
+                    k.ger(ks, w, w, 1.0);
+                    d.ger(c, w, w, 1.0);
+                }
+            }
+        }
+        let w = if cols.is_empty() { nalgebra::DMatrix::zeros(n, 0) } else { nalgebra::DMatrix::from_columns(&cols) };
         let sys = Arc::new(CoupledSystem::new(k, d, w)?);
-        self.coupled_cache.insert(mask, sys.clone());
+        self.coupled_cache.insert(key.to_vec(), sys.clone());
         Ok(sys)
     }
 
-    fn stuck_targets(&self, mask: u64) -> DVector<f64> {
-        DVector::from_iterator(
-            mask.count_ones() as usize,
-            self.model.stops.iter().enumerate().filter(|(i, _)| mask & bit(*i) != 0).map(|(_, s)| s.target()),
-        )
+    /// The held stops' positions `w . q = target`, in column order.
+    fn held_targets(&self) -> DVector<f64> {
+        let targets: Vec<f64> = self
+            .model
+            .stops
+            .iter()
+            .zip(&self.state.stops)
+            .filter(|(m, s)| m.law.term(s.contact) == PhaseTerm::Constraint)
+            .map(|(m, _)| m.geometry.target())
+            .collect();
+        DVector::from_vec(targets)
+    }
+
+    /// The loads of the current phase: the model's, plus the preload
+    /// `k target w` of each pressed compliant stop.
+    fn phase_forcing(&self) -> ModalForcing {
+        let mut f = self.dynamics.forcing.clone();
+        for (m, s) in self.model.stops.iter().zip(&self.state.stops) {
+            if let PhaseTerm::SpringDashpot { k, .. } = m.law.term(s.contact) {
+                f.constant.axpy(k * m.geometry.target(), &m.geometry.w, 1.0);
+            }
+        }
+        f
+    }
+
+    /// The event function of one watch of stop `i` (non-negative while the
+    /// contact state holds); `None` for a held stop's reaction, which only
+    /// the coupled system knows.
+    fn watched_functional(&self, i: usize, watch: Watch) -> Option<Functional> {
+        let stop = &self.model.stops[i];
+        let force = || match &stop.law {
+            Law::SpringDashpot(l) => l.force_functional(&stop.geometry),
+            Law::Restitution(_) => unreachable!("a rigid stop has no force law"),
+        };
+        Some(match watch {
+            Watch::Gap => self.gap_functionals[i].clone(),
+            Watch::Penetration => self.gap_functionals[i].clone().scaled(-1.0),
+            Watch::Force => force(),
+            Watch::NegatedForce => force().scaled(-1.0),
+            Watch::Reaction => return None,
+        })
     }
 
     /// Derives the segment from the anchor and the phase.
     fn rebuild_segment(&mut self) -> Result<(), SimError> {
-        let mask = self.state.stuck;
-        if mask == 0 {
+        self.channels = self
+            .model
+            .stops
+            .iter()
+            .zip(&self.state.stops)
+            .enumerate()
+            .flat_map(|(stop, (m, s))| m.law.watches(s.contact).iter().enumerate().map(move |(slot, &watch)| Channel { stop, slot, watch }))
+            .collect();
+        let key = self.phase_key();
+        if key.iter().all(|c| *c == Contact::Open) {
             let anchor = &self.state.anchor;
-            let anchor_gaps = self
-                .gap_functionals
+            let f0 = DVector::zeros(self.model.n_modes());
+            let functions = self
+                .channels
                 .iter()
-                .enumerate()
-                .map(|(i, g)| if self.state.departing & bit(i) != 0 { 0.0 } else { g.offset + g.q.dot(&anchor.q) })
+                .map(|ch| {
+                    let h = self.watched_functional(ch.stop, ch.watch).expect("free phases watch no reaction");
+                    let at_anchor = if self.state.stops[ch.stop].departing[ch.slot] { 0.0 } else { h.value(anchor, &f0) };
+                    (h, at_anchor)
+                })
                 .collect();
-            self.segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), anchor_gaps };
+            self.segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), functions };
             return Ok(());
         }
-        let system = self.coupled_system(mask)?;
-        let targets = self.stuck_targets(mask);
-        let segment = CoupledSegment::new(&system, &self.dynamics.forcing, &targets, self.state.anchor_time, &self.state.anchor);
+        let system = self.coupled_system(&key)?;
+        let targets = self.held_targets();
+        let forcing = self.phase_forcing();
+        let segment = CoupledSegment::new(&system, &forcing, &targets, self.state.anchor_time, &self.state.anchor);
         let mut reactions_by_column = system.reaction_functionals().into_iter();
-        let mut events = Vec::new();
-        let mut reactions = Vec::new();
-        for (i, stop) in self.model.stops.iter().enumerate() {
-            if mask & bit(i) != 0 {
-                let r = reactions_by_column.next().expect("one reaction per held stop");
-                // Admissible while the stop pushes the beam away: -side lambda >= 0.
-                events.push(segment.project_functional(&system, &r.clone().scaled(-stop.side)));
-                reactions.push(Some(r));
-            } else {
-                events.push(segment.project_functional(&system, &self.gap_functionals[i]));
-                reactions.push(None);
-            }
-        }
-        self.segment = Segment::Coupled { system, segment, events, reactions };
+        let reactions: Vec<Option<Functional>> = key
+            .iter()
+            .map(|c| if *c == Contact::Held { Some(reactions_by_column.next().expect("one reaction per held stop")) } else { None })
+            .collect();
+        let events = self
+            .channels
+            .iter()
+            .map(|ch| {
+                let h = match self.watched_functional(ch.stop, ch.watch) {
+                    Some(h) => h,
+                    // Admissible while the stop pushes the beam away: -side lambda >= 0.
+                    None => reactions[ch.stop].clone().expect("held").scaled(-self.model.stops[ch.stop].geometry.side),
+                };
+                segment.project_functional(&system, &h)
+            })
+            .collect();
+        self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
         Ok(())
     }
 
@@ -497,47 +787,63 @@ impl Simulation {
         }
     }
 
-    /// Jets of every stop's event function at time `t` (state `st`), and the
-    /// certified step or the list of functions at zero.
+    /// The departing flags of the current channels.
+    fn departing_flags(&self) -> Vec<bool> {
+        self.channels.iter().map(|ch| self.state.stops[ch.stop].departing[ch.slot]).collect()
+    }
+
+    /// Stores the search's departing flags back into the stops.
+    fn set_departing(&mut self, flags: &[bool]) {
+        for (ch, &f) in self.channels.iter().zip(flags) {
+            self.state.stops[ch.stop].departing[ch.slot] = f;
+        }
+    }
+
+    /// Jets of every watched event function at time `t` (state `st`), and
+    /// the certified step or the list of functions at zero.
     fn probe(&self, t: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Probe {
-        let mut scan = Scan { departing: self.state.departing, ..Scan::default() };
+        let mut scan = Scan::new(self.departing_flags());
         let tol = self.model.event_tolerance;
         let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, .. } = buffers;
         match &self.segment {
-            Segment::Free { segment: seg, anchor_gaps } => {
+            Segment::Free { segment: seg, functions } => {
                 seg.state_and_increment_at(&self.dynamics, t, st, increment);
-                if self.model.stops.is_empty() {
+                if self.channels.is_empty() {
                     return scan.finish();
                 }
                 jet_buf.fill_free(&self.dynamics, t, st);
                 let mut bounds_ready = false;
-                for (i, gap) in self.gap_functionals.iter().enumerate() {
-                    let mut jet = jet_buf.functional(gap, t);
-                    // The gap itself from the anchor's plus the increment.
-                    let (dg, noise) = increment.functional(&gap.q);
-                    jet.d[0] = anchor_gaps[i] + dg;
-                    jet.noise[0] = (noise + NOISE * anchor_gaps[i].abs()).max(tol);
-                    scan.consider(i, jet, || {
+                for (c, (h, at_anchor)) in functions.iter().enumerate() {
+                    let mut jet = jet_buf.functional(h, t);
+                    if h.qd.is_none() {
+                        // The value itself from the anchor's plus the increment.
+                        let (dh, noise) = increment.functional(&h.q);
+                        jet.d[0] = at_anchor + dh;
+                        jet.noise[0] = (noise + NOISE * at_anchor.abs()).max(tol);
+                    } else {
+                        jet.noise[0] = jet.noise[0].max(tol);
+                    }
+                    scan.consider(c, jet, || {
                         if !bounds_ready {
                             seg.fill_bounds(&self.dynamics, st, increment, self.tau_max, bound_buf);
                             bounds_ready = true;
                         }
-                        bound_buf.functional(gap, self.tau_max)
+                        bound_buf.functional(h, self.tau_max)
                     });
                 }
             }
-            Segment::Coupled { system, segment, events, .. } => {
+            Segment::Coupled { system, forcing, segment, events, .. } => {
                 segment.state_at(system, t, st);
                 let sample = segment.sample(system, t);
                 let mut coords = None;
-                for (i, p) in events.iter().enumerate() {
-                    let mut jet = segment.jet(system, &self.dynamics.forcing, p, &sample);
-                    if self.state.stuck & bit(i) == 0 {
+                for (c, p) in events.iter().enumerate() {
+                    let mut jet = segment.jet(system, forcing, p, &sample);
+                    if self.channels[c].watch != Watch::Reaction {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
-                    scan.consider(i, jet, || {
+                    scan.consider(c, jet, || {
                         let coords = coords.get_or_insert_with(|| segment.coordinate_bounds(system, &sample, self.tau_max));
-                        segment.bounds(&self.dynamics.forcing, p, coords, self.tau_max)
+                        segment.bounds(forcing, p, coords, self.tau_max)
                     });
                 }
             }
@@ -550,6 +856,11 @@ impl Simulation {
     pub fn advance_to(&mut self, t_end: f64) -> Result<(), SimError> {
         if t_end < self.state.time {
             return Err(SimError::Backwards { now: self.state.time, requested: t_end });
+        }
+        if t_end > self.state.time {
+            for i in 0..self.model.stops.len() {
+                self.state.stops[i].impulse_mark = self.impulse_total(i);
+            }
         }
         let mut buffers = self.scratch.take().unwrap_or_else(|| ProbeBuffers::new(&self.dynamics));
         let result = self.advance_with(t_end, &mut buffers);
@@ -566,7 +877,7 @@ impl Simulation {
 
     /// Stops consistently at `l`, the last point the search reached.
     fn stop_at(&mut self, l: f64) {
-        self.accumulate_balance(l);
+        self.account(l);
         self.state.time = l;
         let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
         self.state_at(l, &mut current);
@@ -599,7 +910,7 @@ impl Simulation {
                             break;
                         }
                         // Functions leaving their boundary stop departing once clear of noise.
-                        self.state.departing = departing;
+                        self.set_departing(&departing);
                         self.state.scan = next;
                         continue;
                     }
@@ -618,7 +929,7 @@ impl Simulation {
             }
             self.handle_events(l, st.clone(), at_zero)?;
         }
-        self.accumulate_balance(t_end);
+        self.account(t_end);
         self.state.time = t_end;
         let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
         self.state_at(t_end, &mut current);
@@ -649,7 +960,7 @@ impl Simulation {
                     if !(l + step > l) {
                         return false;
                     }
-                    check.state.departing = departing;
+                    check.set_departing(&departing);
                     check.state.scan = l + step;
                 }
             }
@@ -664,93 +975,118 @@ impl Simulation {
     }
 
     /// Applies the events found at time `t` (state `st`) and starts a new
-    /// segment there if the state or the phase changed.
+    /// segment there if the state or the phase changed. `at_zero` lists
+    /// the channels at their zero with their jets.
     fn handle_events(&mut self, t: f64, mut st: ModalState, at_zero: Vec<(usize, Jet)>) -> Result<(), SimError> {
+        let n_stops = self.model.stops.len();
         let mut impacts: Vec<(usize, f64)> = Vec::new();
         let mut sticks: Vec<usize> = Vec::new();
         let mut releases: Vec<usize> = Vec::new();
-        let mut departing = self.state.departing;
-        for (i, jet) in at_zero {
-            if self.state.stuck & bit(i) != 0 {
-                // The reaction already pulls (after a change of load), or is
-                // about to: release.
-                // A reaction resting at zero (no load) keeps the structure held.
-                if jet.d[0] < -jet.noise[0] || tendency_from(&jet, 1) == Tendency::Closing {
-                    releases.push(i);
-                } else {
-                    departing |= bit(i);
+        let mut switches: Vec<(usize, Contact, f64)> = Vec::new();
+        let mut departing: Vec<[bool; 2]> = self.state.stops.iter().map(|s| s.departing).collect();
+        for (c, jet) in at_zero {
+            let Channel { stop: i, slot, watch } = self.channels[c];
+            let m = &self.model.stops[i];
+            let contact = self.state.stops[i].contact;
+            match m.law.on_zero(contact, watch, &jet, &m.geometry, &st) {
+                Switch::Stay => departing[i][slot] = true,
+                Switch::Graze => {
+                    departing[i][slot] = true;
+                    self.record(t, EventKind::Graze { stop: i });
                 }
-            } else if jet.d[1] < -jet.noise[1] {
-                impacts.push((i, -jet.d[1]));
-            } else if jet.d[1] <= jet.noise[1] {
-                match tendency_from(&jet, 2) {
-                    // At rest on the stop with nothing pushing either way: held
-                    // with zero reaction until a load decides.
-                    Tendency::Closing | Tendency::Resting => sticks.push(i),
-                    Tendency::Opening => {
-                        departing |= bit(i);
-                        self.record(t, EventKind::Graze { stop: i });
+                Switch::Impact => impacts.push((i, -jet.d[1])),
+                Switch::Stick => sticks.push(i),
+                Switch::To(Contact::Open) if contact == Contact::Held => releases.push(i),
+                Switch::To(next) => {
+                    if !switches.iter().any(|s| s.0 == i) {
+                        switches.push((i, next, -jet.d[1]));
                     }
                 }
-            } else {
-                departing |= bit(i);
             }
         }
-        if impacts.is_empty() && sticks.is_empty() && releases.is_empty() {
-            self.state.departing = departing;
+        if impacts.is_empty() && sticks.is_empty() && releases.is_empty() && switches.is_empty() {
+            for (s, d) in self.state.stops.iter_mut().zip(departing) {
+                s.departing = d;
+            }
             return Ok(());
         }
-        // The balance up to the event, in the segment ending here.
-        self.accumulate_balance(t);
+        // The balance and the impulses up to the event, in the segment ending here.
+        self.account(t);
+        self.close_segment(t, &st);
         let energy_before = self.model.energy(&st);
-        let mut stuck = self.state.stuck;
+        let was: Vec<Contact> = self.state.stops.iter().map(|s| s.contact).collect();
+        let mut contact = was.clone();
         for &i in &releases {
-            stuck &= !bit(i);
-            departing |= bit(i);
+            contact[i] = Contact::Open;
+            departing[i] = [true, false];
             self.state.stops[i].previous_impact = None;
             self.record(t, EventKind::Release { stop: i });
+        }
+        // Compliant stops: the phase changes, the state does not.
+        for &(i, next, rate) in &switches {
+            let m = &self.model.stops[i];
+            contact[i] = next;
+            departing[i] = [true, false];
+            let counters = &mut self.state.stops[i];
+            match next {
+                Contact::Pressed if was[i] == Contact::Open => {
+                    counters.impacts += 1;
+                    counters.last_impact = t;
+                    self.record(t, EventKind::Contact { stop: i, speed: rate });
+                }
+                Contact::Open | Contact::Penetrated if was[i] == Contact::Pressed => {
+                    let penetration = m.geometry.penetration(&st.q).max(0.0);
+                    if let Law::SpringDashpot(l) = &m.law {
+                        // The spring's energy left in the stop is its own.
+                        counters.dissipated += 0.5 * l.k * penetration * penetration;
+                    }
+                    self.record(t, EventKind::Separation { stop: i, penetration });
+                }
+                _ => {}
+            }
         }
         // The impact: impacting stops with their restitution, newly pressed
         // and still held stops with R = 0 (seed 000 section 2.2).
         let mut chatter_ends = Vec::new();
-        let mut restitution = vec![0.0; self.model.stops.len()];
+        let mut restitution = vec![0.0; n_stops];
         for &(i, speed) in &impacts {
-            let stop = &self.model.stops[i];
+            let Law::Restitution(law) = &self.model.stops[i].law else { unreachable!("only rigid stops impact") };
+            let negligible = 16.0 * f64::EPSILON * st.qd.amax() * self.model.stops[i].geometry.w.amax();
             let counters = &mut self.state.stops[i];
-            let since = counters.previous_impact.map(|p| t - p);
-            let resolution = 16.0 * f64::EPSILON * t.abs().max(f64::MIN_POSITIVE);
-            let chatter = since.is_some_and(|dt| dt < stop.chatter_eps || dt <= resolution)
-                || stop.restitution * speed <= 16.0 * f64::EPSILON * st.qd.amax() * stop.w.amax();
-            restitution[i] = if chatter { 0.0 } else { stop.restitution };
+            restitution[i] = law.effective(t, counters.previous_impact, speed, negligible);
             counters.impacts += 1;
             counters.last_impact = t;
             counters.previous_impact = Some(t);
-            if chatter {
+            // R = 0 ends a chatter sequence (with R = 0 given, every impact does).
+            if restitution[i] == 0.0 {
                 chatter_ends.push(i);
             }
         }
-        let involved: Vec<usize> = (0..self.model.stops.len())
-            .filter(|&i| stuck & bit(i) != 0 || sticks.contains(&i) || impacts.iter().any(|&(k, _)| k == i))
+        let involved: Vec<usize> = (0..n_stops)
+            .filter(|&i| contact[i] == Contact::Held || sticks.contains(&i) || impacts.iter().any(|&(k, _)| k == i))
             .collect();
         let before = st.qd.clone();
         if !impacts.is_empty() || !sticks.is_empty() {
             let rows: Vec<ImpactRow> = involved
                 .iter()
-                .map(|&i| ImpactRow { w: &self.model.stops[i].w, restitution: restitution[i], side: self.model.stops[i].side })
+                .map(|&i| ImpactRow { w: &self.model.stops[i].geometry.w, restitution: restitution[i], side: self.model.stops[i].geometry.side })
                 .collect();
-            apply_impact(&mut st.qd, &rows);
+            let impulses = apply_impact(&mut st.qd, &rows);
+            for (&i, p) in involved.iter().zip(impulses) {
+                self.state.stops[i].impulse += -self.model.stops[i].geometry.side * p;
+            }
         }
         for &(i, speed) in &impacts {
-            let stop = &self.model.stops[i];
+            let g = &self.model.stops[i].geometry;
             // Put the contact point exactly on the stop (seed 000 Fig. 3b).
-            let miss = stop.target() - stop.w.dot(&st.q);
-            st.q.axpy(miss / stop.w.dot(&stop.w), &stop.w, 1.0);
-            let lost = energy_loss(&stop.w, &before, restitution[i]);
+            let miss = g.target() - g.w.dot(&st.q);
+            st.q.axpy(miss / g.w.dot(&g.w), &g.w, 1.0);
+            let lost = energy_loss(&g.w, &before, restitution[i]);
             self.record(
                 t,
                 EventKind::Impact { stop: i, speed, restitution: restitution[i], energy_lost: lost, chatter: chatter_ends.contains(&i) },
             );
-            departing |= bit(i);
+            departing[i] = [true, false];
         }
         // After the last impact of a chatter sequence the contact velocity is
         // zero: the beam sticks if the loads press it on (the reaction of seed
@@ -761,26 +1097,33 @@ impl Simulation {
         for &i in &chatter_ends {
             let jet = jet_buf.functional(&self.gap_functionals[i], t);
             if tendency_from(&jet, 2) != Tendency::Opening {
-                stuck |= bit(i);
+                contact[i] = Contact::Held;
             }
         }
         for &i in &sticks {
-            stuck |= bit(i);
+            contact[i] = Contact::Held;
         }
-        for i in 0..self.model.stops.len() {
-            if stuck & bit(i) != 0 {
+        let mut newly_held = Vec::new();
+        for i in 0..n_stops {
+            if contact[i] == Contact::Held {
                 self.state.stops[i].previous_impact = None;
+                if was[i] != Contact::Held {
+                    newly_held.push(i);
+                    departing[i] = [true, false];
+                }
             }
         }
-        let newly_stuck = stuck & !self.state.stuck;
-        departing |= newly_stuck;
-        if stuck != 0 {
+        for (s, (c, d)) in self.state.stops.iter_mut().zip(contact.iter().zip(departing)) {
+            s.contact = *c;
+            s.departing = d;
+        }
+        if contact.iter().any(|c| *c == Contact::Held) {
             // Exactly on the held stops, moving along them (seed 000 eqs. 29-31:
             // project at entry so no drift accumulates).
-            let system = self.coupled_system(stuck)?;
-            system.project(&self.stuck_targets(stuck), &mut st);
+            let key = self.phase_key();
+            let system = self.coupled_system(&key)?;
+            system.project(&self.held_targets(), &mut st);
         }
-        self.state.stuck = stuck;
         let lost = energy_before - self.model.energy(&st);
         if let Some(b) = self.state.balance.as_mut() {
             b.impacts += lost;
@@ -788,14 +1131,11 @@ impl Simulation {
         self.state.anchor = st;
         self.state.anchor_time = t;
         self.state.scan = t;
-        self.state.departing = departing;
         self.rebuild_segment()?;
         // Report the sticks with their initial reaction.
-        for i in 0..self.model.stops.len() {
-            if newly_stuck & bit(i) != 0 {
-                let reaction = self.reaction_at(i, t, &self.state.anchor);
-                self.record(t, EventKind::Stick { stop: i, reaction });
-            }
+        for i in newly_held {
+            let reaction = self.reaction_at(i, t, &self.state.anchor);
+            self.record(t, EventKind::Stick { stop: i, reaction });
         }
         Ok(())
     }
@@ -818,39 +1158,38 @@ impl ProbeBuffers {
 }
 
 enum Probe {
-    /// No zero at this point; `departing` keeps the bits of functions still
-    /// within noise of their boundary.
-    Clear { step: f64, limiting: Option<(usize, Jet)>, departing: u64 },
+    /// No zero at this point; `departing` keeps the flags of functions
+    /// still within noise of their boundary.
+    Clear { step: f64, limiting: Option<(usize, Jet)>, departing: Vec<bool> },
     Events(Vec<(usize, Jet)>),
 }
 
 /// The event functions' verdicts at one point, gathered.
 struct Scan {
-    /// Bits of the functions leaving their boundary (input).
-    departing: u64,
+    /// Functions leaving their boundary (input).
+    departing: Vec<bool>,
     at_zero: Vec<(usize, Jet)>,
     step: f64,
     limiting: Option<(usize, Jet)>,
-    keep: u64,
-}
-
-impl Default for Scan {
-    fn default() -> Self {
-        Scan { departing: 0, at_zero: Vec::new(), step: f64::INFINITY, limiting: None, keep: 0 }
-    }
+    keep: Vec<bool>,
 }
 
 impl Scan {
+    fn new(departing: Vec<bool>) -> Self {
+        let n = departing.len();
+        Scan { departing, at_zero: Vec::new(), step: f64::INFINITY, limiting: None, keep: vec![false; n] }
+    }
+
     /// One function: at its zero (an event), or clear for a certified step;
     /// the derivative bounds are only computed when needed.
     fn consider(&mut self, i: usize, jet: Jet, bounds: impl FnOnce() -> DerivativeBounds) {
-        let departing = self.departing & bit(i) != 0;
+        let departing = self.departing[i];
         if jet.d[0] <= jet.noise[0] {
             if !departing {
                 self.at_zero.push((i, jet));
                 return;
             }
-            self.keep |= bit(i);
+            self.keep[i] = true;
         }
         match certified_step(&jet, &bounds(), departing) {
             Certified::Clear(s) => {

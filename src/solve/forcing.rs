@@ -41,6 +41,19 @@ impl ModalForcing {
         }
     }
 
+    /// `int_a^b f dt`, exact: `Re(b_h e^{i W a} (b - a) phi1(i W (b - a)))` per harmonic.
+    pub fn integral(&self, a: f64, b: f64) -> DVector<f64> {
+        let span = b - a;
+        let mut out = &self.constant * span;
+        for h in &self.harmonics {
+            let factor = C64::from_polar(1.0, h.omega * a) * super::oscillator::phi1(C64::new(0.0, h.omega * span)) * span;
+            for (o, amp) in out.iter_mut().zip(h.amplitude.iter()) {
+                *o += (amp * factor).re;
+            }
+        }
+        out
+    }
+
     /// `d^m f_j / dt^m` at time `t` for every mode, `m <= 3`.
     pub fn derivative(&self, t: f64, m: u32, out: &mut DVector<f64>) {
         if m == 0 {

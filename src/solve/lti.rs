@@ -14,7 +14,7 @@ use nalgebra::{DMatrix, DVector};
 use super::forcing::ModalForcing;
 use super::free::ModalState;
 use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
-use super::oscillator::{phi1, C64};
+use super::oscillator::{exp_divdiff2, phi1, C64};
 
 /// Why a coupled phase could not be set up.
 #[derive(Clone, Debug, PartialEq)]
@@ -107,6 +107,11 @@ impl CoupledSystem {
 
     pub fn n_modes(&self) -> usize {
         self.n_modes
+    }
+
+    /// The fastest rate in the phase, `max |L_k|` (0 when fully constrained).
+    pub fn fastest(&self) -> f64 {
+        self.eig.iter().map(|l| l.norm()).fold(0.0, f64::max)
     }
 
     fn n_free(&self) -> usize {
@@ -252,6 +257,28 @@ impl CoupledSegment {
             }
         }
         z
+    }
+
+    /// `int_{t0}^{t} q ds`, exact: each complex coordinate integrates to
+    /// `z0 S phi1(L S) + g S^2 e[0, 0, L S] + sum_h g_h e^{i W t0} S^2 e[0, L S, i W S]`
+    /// (`S = t - t0`, `e[..]` the divided differences of the exponential).
+    /// The stops' impulses over a phase are linear in it.
+    pub fn integral_q(&self, sys: &CoupledSystem, t: f64) -> DVector<f64> {
+        let s = t - self.t0;
+        let n = sys.n_free();
+        let zero = C64::new(0.0, 0.0);
+        let iz = DVector::from_fn(sys.eig.len(), |k, _| {
+            let ls = sys.eig[k] * s;
+            let mut v = self.z0[k] * phi1(ls) * s + self.g_const[k] * exp_divdiff2(zero, ls) * (s * s);
+            for h in &self.harmonics {
+                let rot0 = C64::from_polar(1.0, h.omega * self.t0);
+                v += h.g[k] * rot0 * exp_divdiff2(ls, C64::new(0.0, h.omega * s)) * (s * s);
+            }
+            v
+        });
+        let x = &sys.v * iz;
+        let y = DVector::from_fn(n, |i, _| x[i].re);
+        &self.q_c * s + &sys.z * y
     }
 
     /// Loads on the complex coordinates at time `t`, and their derivatives.
@@ -475,5 +502,32 @@ mod tests {
         assert!((&out.q - &q).norm() < 1e-11, "{} vs {}", out.q, q);
         assert!((&out.qd - &v).norm() < 1e-10);
         assert!((wv.dot(&out.q) - 0.25).abs() < 1e-14);
+    }
+
+    /// The exact integral of the coordinates against Gauss-Legendre
+    /// quadrature of the exact motion, with a harmonic load near a
+    /// resonance of the coupled phase and a stiff coupled mode.
+    #[test]
+    fn integral_of_the_motion_matches_quadrature() {
+        let n = 3;
+        let w = dvector![1.0, -0.8, 0.6];
+        let k = DMatrix::from_diagonal(&dvector![1.0, 16.0, 81.0]) + &w * w.transpose() * 1e4;
+        let d = DMatrix::from_diagonal(&dvector![0.02, 0.1, 0.3]) + &w * w.transpose() * 0.5;
+        let sys = CoupledSystem::new(k, d, DMatrix::zeros(n, 0)).unwrap();
+        let mut forcing = ModalForcing::zero(n);
+        forcing.constant = dvector![0.5, 0.1, -0.2];
+        forcing.add_harmonic(3.9, dvector![C64::new(0.0, -1.0), C64::new(0.3, 0.0), C64::new(0.0, 0.2)]);
+        let start = ModalState { q: dvector![0.3, -0.1, 0.05], qd: dvector![0.2, 0.1, -0.4] };
+        let t0 = 0.4;
+        let seg = CoupledSegment::new(&sys, &forcing, &DVector::zeros(0), t0, &start);
+        let t1 = 3.1;
+        let exact = seg.integral_q(&sys, t1);
+        let mut sum = DVector::zeros(n);
+        let mut st = ModalState::zeros(n);
+        crate::solve::quadrature::for_each_node_band_limited(t0, t1, 2.0 * 130.0, |t, wt| {
+            seg.state_at(&sys, t, &mut st);
+            sum += &st.q * wt;
+        });
+        assert!((&exact - &sum).norm() < 1e-13 * sum.norm().max(1e-3), "{exact} vs {sum}");
     }
 }

@@ -146,6 +146,8 @@ fn run(args: &[String]) -> Result<(), String> {
                 EventKind::Stick { stop, reaction } => ("stick", stop, format!("reaction={reaction:e}")),
                 EventKind::Release { stop } => ("release", stop, String::new()),
                 EventKind::Graze { stop } => ("graze", stop, String::new()),
+                EventKind::Contact { stop, speed } => ("contact", stop, format!("speed={speed:e}")),
+                EventKind::Separation { stop, penetration } => ("separation", stop, format!("penetration={penetration:e}")),
             };
             events.push_str(&format!("{:.17},{kind},{},{detail}\n", e.time, scene.stops[stop].name));
         }

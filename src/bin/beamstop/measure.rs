@@ -102,7 +102,7 @@ pub fn measure(config: &Path) -> Result<(), String> {
     let median = if times.is_empty() { f64::NAN } else { times[times.len() / 2] };
 
     // The dense grid: a run of its own, stepped at dense_dt.
-    let w = model.stops.first().map(|s| s.w.clone());
+    let w = model.stops.first().map(|s| s.geometry.w.clone());
     let mut dense_t = Vec::new();
     let mut dense_w = Vec::new();
     if cfg.dense_dt > 0.0 {
