@@ -106,7 +106,7 @@ impl ParamKey {
     pub fn get(&self, scene: &Scene) -> f64 {
         let law = |i: usize| match scene.stops[i].law {
             StopLaw::Restitution { restitution, eps } => (restitution, eps),
-            StopLaw::SpringDashpot { k, c } => (k, c),
+            StopLaw::SpringDashpot { k, c, .. } => (k, c),
         };
         let load = |i: usize| match &scene.loads[i] {
             Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
@@ -144,7 +144,7 @@ impl ParamKey {
         let n = scene.n_modes();
         let law = |s: &'a mut crate::scene::Stop| match &mut s.law {
             StopLaw::Restitution { restitution, eps } => (restitution, eps),
-            StopLaw::SpringDashpot { k, c } => (k, c),
+            StopLaw::SpringDashpot { k, c, .. } => (k, c),
         };
         match *self {
             ParamKey::LoadAmplitude(i) => load_fields(&mut scene.loads[i]).0,
@@ -626,7 +626,8 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
                 );
             }
         }
-        push(
+        if scene.outputs.impulse {
+            push(
             OutputKey::StopImpulse(i),
             named(n, s, "impulse"),
             format!("Impulse stop '{s}' delivered over the last communication step (>= 0, pushing the structure away: -side w direction), exact"),
@@ -634,6 +635,7 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
             real,
             true,
         );
+        }
     }
     for (i, sensor) in scene.sensors.iter().enumerate() {
         let (n, s) = (&sensor.names, &sensor.name);
@@ -708,27 +710,30 @@ pub enum Value {
 impl OutputKey {
     /// Reads the output from a simulation at its current time.
     pub fn evaluate(&self, sim: &crate::sim::Simulation) -> Value {
-        let c = sim.current();
         let model = sim.model();
         let scale = model.coordinate_scale;
+        let modal = || sim.field();
         match *self {
-            OutputKey::StopDisplacement(i) => Value::Real(model.stops[i].geometry.w.dot(&c.q)),
-            OutputKey::StopVelocity(i) => Value::Real(model.stops[i].geometry.w.dot(&c.qd)),
+            OutputKey::StopDisplacement(i) => Value::Real(sim.stop_motion(i).0),
+            OutputKey::StopVelocity(i) => Value::Real(sim.stop_motion(i).1),
             OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
             OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
             OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
             OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
             OutputKey::StopForce(i) => Value::Real(sim.stop_force(i)),
-            OutputKey::StopPenetration(i) => Value::Real(model.stops[i].geometry.penetration(&c.q)),
+            OutputKey::StopPenetration(i) => {
+                let g = &model.stops[i].geometry;
+                Value::Real(g.side * sim.stop_motion(i).0 - g.gap)
+            }
             OutputKey::StopContact(i) => Value::Boolean(sim.contact(i) == crate::contact::Contact::Pressed),
             OutputKey::StopImpulse(i) => Value::Real(sim.last_impulse(i)),
             OutputKey::StopStoredEnergy(i) => Value::Real(sim.stop_stored_energy(i)),
             OutputKey::StopDissipatedEnergy(i) => Value::Real(sim.stop_dissipated_energy(i)),
-            OutputKey::SensorDisplacement(i) => Value::Real(model.sensors[i].w.dot(&c.q)),
-            OutputKey::SensorVelocity(i) => Value::Real(model.sensors[i].w.dot(&c.qd)),
-            OutputKey::SensorMoment(i) => Value::Real(model.sensors[i].moment.as_ref().map_or(0.0, |m| m.dot(&c.q))),
-            OutputKey::Q(j) => Value::Real(c.q[j] / scale),
-            OutputKey::Qd(j) => Value::Real(c.qd[j] / scale),
+            OutputKey::SensorDisplacement(i) => Value::Real(sim.sensor_motion(i).0),
+            OutputKey::SensorVelocity(i) => Value::Real(sim.sensor_motion(i).1),
+            OutputKey::SensorMoment(i) => Value::Real(sim.sensor_motion(i).2),
+            OutputKey::Q(j) => Value::Real(modal().q[j] / scale),
+            OutputKey::Qd(j) => Value::Real(modal().qd[j] / scale),
             OutputKey::Energy => Value::Real(sim.energy()),
             OutputKey::ForcingEnergy(j) => Value::Real(sim.energy_balance().map_or(0.0, |b| b.forcing[j])),
             OutputKey::DampingEnergy(j) => Value::Real(sim.energy_balance().map_or(0.0, |b| b.damping[j])),

@@ -5,12 +5,12 @@
 //! + omega^2 q = f`, seed 000 eq. 13); `coordinate_scale` converts them to
 //! the displacement units the interface shows.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
-use crate::scene::{ActuatorKind, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
+use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Geometry, Law, Restitution, SpringDashpot};
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
-use crate::structure::{Beam, Chain, Point, Structure, Support};
+use crate::structure::{tip_spring, Beam, Chain, Point, Structure, Support, TipSpringCantilever};
 
 /// A stop acting on one point of the structure.
 #[derive(Clone, Debug, PartialEq)]
@@ -48,6 +48,110 @@ pub struct Model {
     pub max_probes_per_step: u64,
     /// Accumulate seed 003's energy balance (FE_j, DE_j, impact losses).
     pub energy_balance: bool,
+    /// Mode transfer (seed 001's MTM, RMTM) for the one tip stop that asks
+    /// for it: the basis its contact phases use.
+    pub transfer: Option<TransferBasis>,
+}
+
+/// The modes of the cantilever with the tip spring (seed 001's contact
+/// phase) and everything the model projects on them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferBasis {
+    pub method: ContactMethod,
+    /// The stop whose contact switches to this basis.
+    pub stop: usize,
+    pub oscillators: Vec<Oscillator>,
+    /// Modal loads without the inputs, and each input's unit load.
+    pub loads: ModalForcing,
+    pub inputs: Vec<DVector<f64>>,
+    /// `Phi_n(L)`: the stop's displacement is `Phi(L) . p`.
+    pub stop_w: DVector<f64>,
+    /// Each sensor's `Phi_n(x)` and `EI Phi_n''(x)`.
+    pub sensors: Vec<(DVector<f64>, Option<DVector<f64>>)>,
+    /// `T[n, j] = int mu Phi_n W_j dx`: spring coordinates of a field are
+    /// `T q`, cantilever coordinates of a spring-mode field `T^T p`.
+    pub overlap: DMatrix<f64>,
+    /// The structure's damping projected on the contact modes, `T D T^T`
+    /// (`transfer_damping: "inherited"`); `None`: modal damping.
+    pub damping: Option<DMatrix<f64>>,
+}
+
+/// The modal loads of a scene on a basis: `shape_at` gives a point's shape
+/// vector, `integral` the distributed load's `int W_j`, `inertial` the
+/// load of a unit acceleration of the supports.
+fn project_loads(scene: &Scene, shape_at: &dyn Fn(Point) -> DVector<f64>, integral: &DVector<f64>, inertial: &DVector<f64>) -> ModalForcing {
+    let mut loads = ModalForcing::zero(integral.len());
+    for load in &scene.loads {
+        let (profile, amplitude, omega, waveform) = match load {
+            Load::DistributedHarmonic { amplitude, omega, waveform, .. } => (integral.clone(), amplitude, omega, waveform),
+            Load::PointHarmonic { x, mass, amplitude, omega, waveform, .. } => (shape_at(point(scene, *x, *mass)), amplitude, omega, waveform),
+            Load::BaseExcitation { amplitude, omega, waveform, .. } => (inertial.clone(), amplitude, omega, waveform),
+        };
+        // A sin(W t) = Re(-i A e^{i W t}); A cos(W t) = Re(A e^{i W t}).
+        let phase = match waveform {
+            Waveform::Sin => C64::new(0.0, -1.0),
+            Waveform::Cos => C64::new(1.0, 0.0),
+        };
+        loads.add_harmonic(*omega, profile.map(|p| phase * (amplitude * p)));
+    }
+    loads
+}
+
+fn project_inputs(scene: &Scene, shape_at: &dyn Fn(Point) -> DVector<f64>, inertial: &DVector<f64>) -> Vec<DVector<f64>> {
+    scene
+        .actuators
+        .iter()
+        .map(|a| match a.kind {
+            ActuatorKind::Force => shape_at(point(scene, a.x, a.mass)),
+            ActuatorKind::BaseAcceleration => inertial.clone(),
+        })
+        .collect()
+}
+
+impl TransferBasis {
+    /// The spring-mode basis of a tip stop asking for mode transfer (the
+    /// scene has validated: clamped-free beam, the stop at the tip).
+    fn build(
+        scene: &Scene,
+        beam: &Beam,
+        stop: usize,
+        (k, method, damping): (f64, ContactMethod, TransferDamping),
+        zeta: &dyn Fn(usize) -> f64,
+    ) -> TransferBasis {
+        let n = beam.n_modes();
+        let spring = TipSpringCantilever::new(n, beam.length, beam.mass_per_length, beam.bending_stiffness, k);
+        let vector = |f: &dyn Fn(usize) -> f64| DVector::from_iterator(n, (1..=n).map(f));
+        let shape_at = |p: Point| match p {
+            Point::Along(x) => vector(&|j| spring.shape(j, x)),
+            Point::Mass(_) => unreachable!("a beam"),
+        };
+        let integral = vector(&|j| spring.shape_integral(j));
+        let inertial = vector(&|j| -beam.mass_per_length * spring.shape_integral(j));
+        let overlap = tip_spring::overlap(&spring, beam);
+        TransferBasis {
+            method,
+            stop,
+            oscillators: (1..=n).map(|j| Oscillator::new(spring.omega(j), zeta(j))).collect(),
+            loads: project_loads(scene, &shape_at, &integral, &inertial),
+            inputs: project_inputs(scene, &shape_at, &inertial),
+            // The tip value from the shear condition: accurate for stiff springs.
+            stop_w: vector(&|j| spring.tip(j)),
+            sensors: scene
+                .sensors
+                .iter()
+                .map(|s| {
+                    let x = s.x.expect("a beam's sensor has x");
+                    let moment = s.quantities.contains(&Quantity::BendingMoment).then(|| vector(&|j| beam.bending_stiffness * spring.curvature(j, x)));
+                    (vector(&|j| spring.shape(j, x)), moment)
+                })
+                .collect(),
+            overlap: overlap.clone(),
+            damping: (damping == TransferDamping::Inherited).then(|| {
+                let d = DVector::from_iterator(n, (1..=n).map(|j| 2.0 * zeta(j) * beam.omega(j)));
+                &overlap * DMatrix::from_diagonal(&d) * overlap.transpose()
+            }),
+        }
+    }
 }
 
 fn point(scene: &Scene, x: Option<f64>, mass: Option<usize>) -> Point {
@@ -98,25 +202,10 @@ impl Model {
         let vector = |f: &dyn Fn(usize) -> f64| DVector::from_iterator(n, modes.clone().map(f));
         let shape_at = |p: Point| vector(&|j| structure.shape(j, p));
         let inertial = vector(&|j| -structure.inertial_participation(j));
-        let mut loads = ModalForcing::zero(n);
-        for load in &scene.loads {
-            let (profile, amplitude, omega, waveform) = match load {
-                Load::DistributedHarmonic { amplitude, omega, waveform, .. } => {
-                    let Structure::Beam(b) = &structure else { unreachable!("validated") };
-                    (vector(&|j| b.shape_integral(j)), amplitude, omega, waveform)
-                }
-                Load::PointHarmonic { x, mass, amplitude, omega, waveform, .. } => {
-                    (shape_at(point(scene, *x, *mass)), amplitude, omega, waveform)
-                }
-                Load::BaseExcitation { amplitude, omega, waveform, .. } => (inertial.clone(), amplitude, omega, waveform),
-            };
-            // A sin(W t) = Re(-i A e^{i W t}); A cos(W t) = Re(A e^{i W t}).
-            let phase = match waveform {
-                Waveform::Sin => C64::new(0.0, -1.0),
-                Waveform::Cos => C64::new(1.0, 0.0),
-            };
-            loads.add_harmonic(*omega, profile.map(|p| phase * (amplitude * p)));
-        }
+        let loads = match &structure {
+            Structure::Beam(b) => project_loads(scene, &shape_at, &vector(&|j| b.shape_integral(j)), &inertial),
+            Structure::Chain(_) => project_loads(scene, &shape_at, &DVector::zeros(n), &inertial),
+        };
         let mut stops = Vec::new();
         for (i, s) in scene.stops.iter().enumerate() {
             let w = shape_at(point(scene, s.x, s.mass));
@@ -128,7 +217,7 @@ impl Model {
             }
             let law = match s.law {
                 StopLaw::Restitution { restitution, eps } => Law::Restitution(Restitution { restitution, chatter_eps: eps }),
-                StopLaw::SpringDashpot { k, c } => Law::SpringDashpot(SpringDashpot { k, c }),
+                StopLaw::SpringDashpot { k, c, .. } => Law::SpringDashpot(SpringDashpot { k, c }),
             };
             let side = match s.side {
                 Side::Positive => 1.0,
@@ -150,14 +239,15 @@ impl Model {
                 SensorModel { name: s.name.clone(), w: shape_at(p), moment }
             })
             .collect();
-        let inputs = scene
-            .actuators
-            .iter()
-            .map(|a| match a.kind {
-                ActuatorKind::Force => shape_at(point(scene, a.x, a.mass)),
-                ActuatorKind::BaseAcceleration => inertial.clone(),
-            })
-            .collect();
+        let inputs = project_inputs(scene, &shape_at, &inertial);
+        let mut transfer = None;
+        for (i, s) in scene.stops.iter().enumerate() {
+            if let (StopLaw::SpringDashpot { k, method, transfer_damping, .. }, Structure::Beam(b)) = (&s.law, &structure) {
+                if *method != ContactMethod::Fim {
+                    transfer = Some(TransferBasis::build(scene, b, i, (*k, *method, *transfer_damping), &zeta));
+                }
+            }
+        }
         let coordinate_scale = structure.coordinate_scale();
         let mut initial = ModalState::zeros(n);
         for (j, v) in scene.initial.q.iter().enumerate() {
@@ -179,6 +269,7 @@ impl Model {
             max_events_per_step: scene.solver.max_events_per_step,
             max_probes_per_step: scene.solver.max_probes_per_step.unwrap_or_else(|| default_probe_budget(n)),
             energy_balance: scene.outputs.energy_balance,
+            transfer,
         })
     }
 

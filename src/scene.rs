@@ -222,7 +222,58 @@ pub enum StopLaw {
     /// Compliant stop: `F = max(0, k p + c p')`, `p` the penetration
     /// (a spring, seed 001, with an optional dashpot), in contact phases
     /// solved exactly.
-    SpringDashpot { k: f64, c: f64 },
+    SpringDashpot {
+        k: f64,
+        c: f64,
+        /// How contact phases are represented (seed 001's three methods).
+        #[serde(default, skip_serializing_if = "ContactMethod::is_fim")]
+        method: ContactMethod,
+        /// With mode transfer: how the contact modes are damped.
+        #[serde(default, skip_serializing_if = "TransferDamping::is_modal")]
+        transfer_damping: TransferDamping,
+    },
+}
+
+/// The damping of the contact modes under mode transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum TransferDamping {
+    /// The structure's modal damping ratio on every contact mode (seed 001:
+    /// "adding damping" in each basis).
+    #[default]
+    Modal,
+    /// The structure's own damping operator projected on the contact modes,
+    /// `T diag(2 zeta omega) T^T`: the damping force-integration applies, so
+    /// the three methods then solve the same continuum.
+    Inherited,
+}
+
+impl TransferDamping {
+    pub fn is_modal(&self) -> bool {
+        *self == TransferDamping::Modal
+    }
+}
+
+/// Seed 001's three ways of solving a contact phase of a tip spring stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactMethod {
+    /// Force integration: the stop's force on the structure's own modes
+    /// (`K + k w w^T`), exact for that Galerkin model.
+    #[default]
+    Fim,
+    /// Mode transfer: while in contact, the modes of the cantilever with
+    /// the tip spring; both fields projected at every switch.
+    Mtm,
+    /// Relative mode transfer: the motion after each switch is an
+    /// increment, in the new modes, over the shape frozen at the switch.
+    Rmtm,
+}
+
+impl ContactMethod {
+    pub fn is_fim(&self) -> bool {
+        *self == ContactMethod::Fim
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -287,6 +338,10 @@ pub struct OutputChoice {
     /// (eq. 8) and the energy lost at impacts, accumulated from the start.
     #[serde(default)]
     pub energy_balance: bool,
+    /// Each stop's impulse over the last communication step (`<stop>.impulse`),
+    /// for a master that couples the stop to another model.
+    #[serde(default = "yes")]
+    pub impulse: bool,
 }
 
 fn yes() -> bool {
@@ -295,7 +350,7 @@ fn yes() -> bool {
 
 impl Default for OutputChoice {
     fn default() -> Self {
-        OutputChoice { energy: true, modal: true, energy_balance: false }
+        OutputChoice { energy: true, modal: true, energy_balance: false, impulse: true }
     }
 }
 
@@ -604,6 +659,23 @@ impl Scene {
         for (i, s) in self.stops.iter().enumerate() {
             unique(format!("stops[{i}].name"), &s.name)?;
             self.check_location(&format!("stops[{i}]"), &s.at())?;
+            if let StopLaw::SpringDashpot { method, c, .. } = s.law {
+                if method != ContactMethod::Fim {
+                    let length = self.section()?.map_or(1.0, |s| s.length);
+                    let cantilever = matches!(self.structure, StructureSpec::Beam { support: SupportKind::ClampedFree, .. });
+                    if !cantilever || s.x != Some(length) || self.stops.len() != 1 {
+                        return err(format!(
+                            "stops[{i}].law.method = {method:?}: mode transfer needs the only stop of a clamped-free beam, at its tip (x = {length}); use \"fim\""
+                        ));
+                    }
+                    if c != 0.0 {
+                        return err(format!("stops[{i}].law.c = {c}: mode transfer (method {method:?}) models a spring stop alone: c must be 0, or use \"fim\""));
+                    }
+                    if self.outputs.energy_balance {
+                        return err(format!("outputs.energy_balance: not available with stops[{i}].law.method = {method:?}; use \"fim\""));
+                    }
+                }
+            }
         }
         for (i, s) in self.sensors.iter().enumerate() {
             unique(format!("sensors[{i}].name"), &s.name)?;

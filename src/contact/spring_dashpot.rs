@@ -40,7 +40,10 @@ impl SpringDashpot {
 
     /// `k p + c p'` as a functional of the modal state.
     pub fn force_functional(&self, g: &Geometry) -> Functional {
-        Functional { offset: -self.k * g.gap, q: &g.w * (self.k * g.side), qd: Some(&g.w * (self.c * g.side)), f: None }
+        // Without a dashpot the force is a displacement functional, which
+        // the free-flight search evaluates as an increment from the anchor.
+        let qd = (self.c != 0.0).then(|| &g.w * (self.c * g.side));
+        Functional { offset: -self.k * g.gap, q: &g.w * (self.k * g.side), qd, f: None }
     }
 
     pub fn force(&self, g: &Geometry, state: &ModalState) -> f64 {

@@ -13,7 +13,7 @@ use crate::solve::free::ModalJet;
 use crate::solve::functional::NOISE;
 use crate::solve::ModalState;
 
-use super::{EnergyBalance, SimState, Simulation, StopState};
+use super::{EnergyBalance, Frozen, SimState, Simulation, StopState};
 use crate::contact::{Contact, Law};
 
 /// Version of the encoding below; bump on any change.
@@ -44,6 +44,14 @@ impl Simulation {
             w.f64(stop.dissipated);
         }
         w.modal(&st.current);
+        match &st.frozen {
+            None => w.u8(0),
+            Some(f) => {
+                w.u8(1);
+                w.f64s(f.c.as_slice());
+                w.f64s(f.d.as_slice());
+            }
+        }
         match &st.balance {
             None => w.u8(0),
             Some(b) => {
@@ -97,6 +105,17 @@ impl Simulation {
             })
             .collect::<Result<Vec<_>, String>>()?;
         let current = r.modal(n)?;
+        let frozen = if r.u8()? == 0 {
+            None
+        } else {
+            Some(Frozen {
+                c: nalgebra::DVector::from_vec(r.f64s(n, "frozen shape (structure modes)")?),
+                d: nalgebra::DVector::from_vec(r.f64s(n, "frozen shape (tip-spring modes)")?),
+            })
+        };
+        if frozen.is_some() != model.transfer.is_some() {
+            return Err("simulation state and model disagree on mode transfer (a frozen shape)".into());
+        }
         let balance = if r.u8()? == 0 {
             None
         } else {
@@ -110,7 +129,7 @@ impl Simulation {
         if balance.is_some() != model.energy_balance {
             return Err("simulation state and model disagree on the energy balance".into());
         }
-        let state = SimState { time, anchor_time, anchor, scan, stops, accounted, current, balance };
+        let state = SimState { time, anchor_time, anchor, scan, stops, accounted, current, balance, frozen };
         Simulation::restore_checked(model, inputs, state)
     }
 
@@ -128,6 +147,12 @@ impl Simulation {
         check_contacts(&state, &model)?;
         let sim = Simulation::restore(model, inputs, state).map_err(|e| e.to_string())?;
         check_geometry(&sim)?;
+        for i in 0..sim.model.stops.len() {
+            let (total, mark) = (sim.impulse_total(i), sim.state.stops[i].impulse_mark);
+            if mark > total * (1.0 + 1e-9) + f64::MIN_POSITIVE {
+                return Err(format!("simulation state: stops[{i}].impulse mark {mark} exceeds the impulse delivered so far, {total}"));
+            }
+        }
         if !sim.certifies_up_to_scan(1000) {
             return Err(format!(
                 "simulation state: the claim that no event lies between t = {} and the search position {} cannot be certified",
@@ -186,6 +211,12 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
         ));
     }
     finite("accounted time", st.accounted)?;
+    if let Some(f) = &st.frozen {
+        for (j, (c, d)) in f.c.iter().zip(f.d.iter()).enumerate() {
+            finite(&format!("frozen c[{}]", j + 1), *c)?;
+            finite(&format!("frozen d[{}]", j + 1), *d)?;
+        }
+    }
     if !(st.anchor_time <= st.accounted && st.accounted <= st.time) {
         return Err(format!("simulation state: accounted time {} outside [anchor {}, time {}]", st.accounted, st.anchor_time, st.time));
     }
@@ -193,6 +224,11 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
         finite(&format!("stops[{i}].impulse"), s.impulse)?;
         finite(&format!("stops[{i}].impulse mark"), s.impulse_mark)?;
         finite(&format!("stops[{i}].dissipated"), s.dissipated)?;
+        for (what, v) in [("impulse", s.impulse), ("impulse mark", s.impulse_mark), ("dissipated", s.dissipated)] {
+            if v < 0.0 {
+                return Err(format!("simulation state: stops[{i}].{what} = {v}: must be >= 0 (stops push, never pull)"));
+            }
+        }
         finite(&format!("stops[{i}].last impact"), s.last_impact)?;
         if s.last_impact > st.time {
             return Err(format!("simulation state: stops[{i}].last impact = {} lies after the time {}", s.last_impact, st.time));
@@ -231,7 +267,7 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
     for (i, stop) in model.stops.iter().enumerate() {
         let g = &sim.gap_functionals[i];
         let jet = jets.functional(g, st.time);
-        let geo = &stop.geometry;
+        let geo = &sim.geometries[i];
         let size = geo.gap.abs() + geo.w.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
         let vsize = geo.w.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
         let level = (NOISE * size).max(tol);

@@ -17,7 +17,8 @@ mod codec;
 pub use codec::STATE_VERSION;
 
 use crate::contact::restitution::{apply_impact, energy_loss, ImpactRow};
-use crate::contact::{Contact, Law, PhaseTerm, Switch, Watch};
+use crate::contact::{Contact, Geometry, Law, PhaseTerm, Switch, Watch};
+use crate::scene::ContactMethod;
 use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
@@ -173,6 +174,19 @@ pub struct SimState {
     pub current: ModalState,
     /// Seed 003's energy accounting, when the model asks for it.
     pub balance: Option<EnergyBalance>,
+    /// With mode transfer (seed 001's MTM, RMTM): the shape the current
+    /// motion is an increment over, in both bases; `current` and `anchor`
+    /// are then in the basis of the phase (spring modes while the transfer
+    /// stop is pressed).
+    pub frozen: Option<Frozen>,
+}
+
+/// A frozen displacement field `sum_j W_j c_j + sum_n Phi_n d_n`
+/// (cantilever and tip-spring modes; zero for MTM, which projects instead).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frozen {
+    pub c: DVector<f64>,
+    pub d: DVector<f64>,
 }
 
 /// The work of the loads on each mode `FE_j = int qd_j f_j dt`, the energy
@@ -229,6 +243,9 @@ pub struct Simulation {
     segment: Segment,
     /// The event functions of the current phase.
     channels: Vec<Channel>,
+    /// Each stop's geometry in the current basis (with mode transfer, the
+    /// frozen shape's share of the gap taken off).
+    geometries: Vec<Geometry>,
     gap_functionals: Vec<Functional>,
     coupled_cache: HashMap<Vec<Contact>, Arc<CoupledSystem>>,
     /// Longest interval over which the event search bounds derivatives.
@@ -239,6 +256,11 @@ pub struct Simulation {
     /// Work space of the event search, kept between calls (derived from
     /// the dynamics: dropped when they change).
     scratch: Option<ProbeBuffers>,
+    /// The dynamics changed inside an advance (a change of basis): the
+    /// search's work space must be rebuilt.
+    basis_changed: bool,
+    /// Mode transfer with inherited damping: the contact phase's system.
+    transfer_system: Option<Arc<CoupledSystem>>,
 }
 
 /// Work counters of a run.
@@ -292,6 +314,7 @@ impl Simulation {
             scan: start_time,
             stops,
             accounted: start_time,
+            frozen: model.transfer.as_ref().map(|_| Frozen { c: DVector::zeros(model.n_modes()), d: DVector::zeros(model.n_modes()) }),
             current: initial,
             balance: model.energy_balance.then(|| EnergyBalance {
                 forcing: vec![0.0; model.n_modes()],
@@ -310,8 +333,9 @@ impl Simulation {
     /// Restores a run from a saved state (see [`Self::state`]): everything
     /// else is derived from the model, the inputs and the state.
     pub fn restore(model: Model, inputs: Vec<f64>, state: SimState) -> Result<Self, SimError> {
-        let dynamics = FreeDynamics::new(model.oscillators.clone(), model.forcing_with_inputs(&inputs));
-        let gap_functionals = model.stops.iter().map(|s| s.geometry.gap_functional()).collect();
+        let dynamics = phase_dynamics(&model, &inputs, &state);
+        let geometries = active_geometries(&model, &state);
+        let gap_functionals = geometries.iter().map(|g| g.gap_functional()).collect();
         let tau_max = TAU_MAX_PERIODS * model.shortest_period();
         let segment = Segment::Free { segment: FreeSegment::new(&dynamics, state.anchor_time, &state.anchor), functions: Vec::new() };
         let mut sim = Simulation {
@@ -321,6 +345,7 @@ impl Simulation {
             state,
             segment,
             channels: Vec::new(),
+            geometries,
             gap_functionals,
             coupled_cache: HashMap::new(),
             tau_max,
@@ -328,6 +353,8 @@ impl Simulation {
             events: Vec::new(),
             stats: Stats::default(),
             scratch: None,
+            basis_changed: false,
+            transfer_system: None,
         };
         sim.rebuild_segment()?;
         Ok(sim)
@@ -378,8 +405,65 @@ impl Simulation {
         std::mem::take(&mut self.events)
     }
 
+    /// Kinetic plus strain energy of the structure (with mode transfer, of
+    /// its projection on the structure's modes).
     pub fn energy(&self) -> f64 {
-        self.model.energy(&self.state.current)
+        match &self.state.frozen {
+            None => self.model.energy(&self.state.current),
+            Some(_) => self.model.energy(&self.field()),
+        }
+    }
+
+    /// The motion in the structure's own modal coordinates: the state
+    /// itself, or with mode transfer the frozen shape plus the increment,
+    /// projected (`c + T^T (d + p)` in contact, `c + T^T d + q` apart).
+    pub fn field(&self) -> ModalState {
+        let (Some(f), Some(tr)) = (&self.state.frozen, &self.model.transfer) else { return self.state.current.clone() };
+        let cur = &self.state.current;
+        let t = &tr.overlap;
+        if self.in_transfer() {
+            ModalState { q: &f.c + t.tr_mul(&(&f.d + &cur.q)), qd: t.tr_mul(&cur.qd) }
+        } else {
+            ModalState { q: &f.c + t.tr_mul(&f.d) + &cur.q, qd: cur.qd.clone() }
+        }
+    }
+
+    /// Whether the state is in the tip-spring basis (mode transfer, pressed).
+    fn in_transfer(&self) -> bool {
+        self.model.transfer.as_ref().is_some_and(|tr| self.state.stops[tr.stop].contact == Contact::Pressed)
+    }
+
+    /// Displacement and velocity of the structure at a point given by its
+    /// shape in the structure's modes (`w`) and, with mode transfer, in
+    /// the tip-spring modes (`phi`).
+    pub fn point_motion(&self, w: &DVector<f64>, phi: Option<&DVector<f64>>) -> (f64, f64) {
+        let cur = &self.state.current;
+        match (&self.state.frozen, phi) {
+            (Some(f), Some(phi)) => {
+                let frozen = w.dot(&f.c) + phi.dot(&f.d);
+                let active = if self.in_transfer() { phi } else { w };
+                (frozen + active.dot(&cur.q), active.dot(&cur.qd))
+            }
+            _ => (w.dot(&cur.q), w.dot(&cur.qd)),
+        }
+    }
+
+    /// Displacement and velocity at stop `i`.
+    pub fn stop_motion(&self, i: usize) -> (f64, f64) {
+        let phi = self.model.transfer.as_ref().filter(|tr| tr.stop == i).map(|tr| &tr.stop_w);
+        self.point_motion(&self.model.stops[i].geometry.w, phi)
+    }
+
+    /// Displacement, velocity and (if measured) bending moment at sensor `i`.
+    pub fn sensor_motion(&self, i: usize) -> (f64, f64, f64) {
+        let s = &self.model.sensors[i];
+        let phi = self.model.transfer.as_ref().map(|tr| &tr.sensors[i]);
+        let (w, v) = self.point_motion(&s.w, phi.map(|p| &p.0));
+        let m = match &s.moment {
+            Some(m) => self.point_motion(m, phi.and_then(|p| p.1.as_ref())).0,
+            None => 0.0,
+        };
+        (w, v, m)
     }
 
     pub fn energy_balance(&self) -> Option<&EnergyBalance> {
@@ -414,8 +498,8 @@ impl Simulation {
             }
             // The work the structure does on compliant stops, F p'.
             for &i in &pressed {
-                let s = &self.model.stops[i];
-                into_stops += w * s.law.force(Contact::Pressed, &s.geometry, &st) * s.geometry.penetration_rate(&st.qd);
+                let (s, g) = (&self.model.stops[i], &self.geometries[i]);
+                into_stops += w * s.law.force(Contact::Pressed, g, &st) * g.penetration_rate(&st.qd);
             }
         });
         let b = self.state.balance.as_mut().expect("checked above");
@@ -461,7 +545,7 @@ impl Simulation {
         crate::solve::quadrature::for_each_node_band_limited(from, t, 2.0 * fastest, |tau, w| {
             self.state_at(tau, &mut st);
             for (k, &(i, c)) in dashpots.iter().enumerate() {
-                let v = self.model.stops[i].geometry.penetration_rate(&st.qd);
+                let v = self.geometries[i].penetration_rate(&st.qd);
                 sums[k] += w * c * v * v;
             }
         });
@@ -475,31 +559,44 @@ impl Simulation {
     /// state and the load, so its integral is linear in `int q`
     /// ([`CoupledSegment::integral_q`]), `q(t) - q(t0)` and `int f`.
     fn segment_impulse(&self, i: usize, t: f64, at_t: &ModalState) -> f64 {
-        let Segment::Coupled { system, forcing, segment, reactions, .. } = &self.segment else { return 0.0 };
         let stop = &self.model.stops[i];
-        let g = &stop.geometry;
+        let g = &self.geometries[i];
         let span = t - self.state.anchor_time;
         if span <= 0.0 {
             return 0.0;
         }
-        match (self.state.stops[i].contact, &stop.law) {
-            (Contact::Held, _) => {
-                let r = reactions[i].as_ref().expect("a held stop has a reaction");
-                let iq = segment.integral_q(system, t);
-                let mut lambda = r.q.dot(&iq) + r.offset * span;
-                if let Some(b) = &r.qd {
-                    lambda += b.dot(&(&at_t.q - &self.state.anchor.q));
-                }
-                if let Some(c) = &r.f {
-                    lambda += c.dot(&forcing.integral(self.state.anchor_time, t));
-                }
-                -g.side * lambda
+        let pressed_spring = |iq: &DVector<f64>| match &stop.law {
+            Law::SpringDashpot(l) => l.k * (g.side * g.w.dot(iq) - g.gap * span) + l.c * g.side * g.w.dot(&(&at_t.q - &self.state.anchor.q)),
+            Law::Restitution(_) => 0.0,
+        };
+        match &self.segment {
+            // Free oscillators (mode transfer in contact): `omega^2 int q =
+            // int f - [q'] - 2 a [q]` mode by mode, exact.
+            Segment::Free { .. } if self.state.stops[i].contact == Contact::Pressed => {
+                let f = self.dynamics.forcing.integral(self.state.anchor_time, t);
+                let iq = DVector::from_fn(f.len(), |j, _| {
+                    let o = &self.dynamics.oscillators[j];
+                    (f[j] - (at_t.qd[j] - self.state.anchor.qd[j]) - 2.0 * o.a * (at_t.q[j] - self.state.anchor.q[j])) / (o.omega * o.omega)
+                });
+                pressed_spring(&iq)
             }
-            (Contact::Pressed, Law::SpringDashpot(l)) => {
-                let iq = segment.integral_q(system, t);
-                l.k * (g.side * g.w.dot(&iq) - g.gap * span) + l.c * g.side * g.w.dot(&(&at_t.q - &self.state.anchor.q))
-            }
-            _ => 0.0,
+            Segment::Free { .. } => 0.0,
+            Segment::Coupled { system, forcing, segment, reactions, .. } => match self.state.stops[i].contact {
+                Contact::Held => {
+                    let r = reactions[i].as_ref().expect("a held stop has a reaction");
+                    let iq = segment.integral_q(system, t);
+                    let mut lambda = r.q.dot(&iq) + r.offset * span;
+                    if let Some(b) = &r.qd {
+                        lambda += b.dot(&(&at_t.q - &self.state.anchor.q));
+                    }
+                    if let Some(c) = &r.f {
+                        lambda += c.dot(&forcing.integral(self.state.anchor_time, t));
+                    }
+                    -g.side * lambda
+                }
+                Contact::Pressed => pressed_spring(&segment.integral_q(system, t)),
+                _ => 0.0,
+            },
         }
     }
 
@@ -509,25 +606,25 @@ impl Simulation {
     }
 
     /// The impulse stop `i` delivered during the last advance that moved
-    /// time (>= 0, pushing the structure away from the stop).
+    /// time (>= 0, pushing the structure away from the stop; a difference
+    /// of running totals, so clamped at 0 against their rounding).
     pub fn last_impulse(&self, i: usize) -> f64 {
-        self.impulse_total(i) - self.state.stops[i].impulse_mark
+        (self.impulse_total(i) - self.state.stops[i].impulse_mark).max(0.0)
     }
 
     /// The force stop `i` pushes with now (>= 0): a held stop's reaction, a
     /// pressed compliant stop's `k p + c p'`.
     pub fn stop_force(&self, i: usize) -> f64 {
-        let s = &self.model.stops[i];
+        let (s, g) = (&self.model.stops[i], &self.geometries[i]);
         match self.state.stops[i].contact {
-            Contact::Held => -s.geometry.side * self.reaction(i),
-            c => s.law.force(c, &s.geometry, &self.state.current),
+            Contact::Held => -g.side * self.reaction(i),
+            c => s.law.force(c, g, &self.state.current),
         }
     }
 
     /// Elastic energy stored in stop `i` now.
     pub fn stop_stored_energy(&self, i: usize) -> f64 {
-        let s = &self.model.stops[i];
-        s.law.stored_energy(self.state.stops[i].contact, &s.geometry, &self.state.current)
+        self.model.stops[i].law.stored_energy(self.state.stops[i].contact, &self.geometries[i], &self.state.current)
     }
 
     /// Energy dissipated in stop `i` since the start (its dashpot, and the
@@ -601,7 +698,7 @@ impl Simulation {
         let current = self.state.current.clone();
         self.close_segment(self.state.time, &current);
         self.inputs.copy_from_slice(inputs);
-        self.dynamics.set_forcing(self.model.forcing_with_inputs(&self.inputs));
+        self.dynamics = phase_dynamics(&self.model, &self.inputs, &self.state);
         self.scratch = None;
         self.reanchor_now()
     }
@@ -617,13 +714,13 @@ impl Simulation {
             && model.stops.iter().zip(&self.model.stops).all(|(a, b)| a.geometry == b.geometry && a.law == b.law);
         if !same_phases {
             self.coupled_cache.clear();
+            self.transfer_system = None;
         }
         self.tau_max = TAU_MAX_PERIODS * model.shortest_period();
-        self.gap_functionals = model.stops.iter().map(|s| s.geometry.gap_functional()).collect();
         let current = self.state.current.clone();
         self.close_segment(self.state.time, &current);
         self.model = model;
-        self.dynamics = FreeDynamics::new(self.model.oscillators.clone(), self.model.forcing_with_inputs(&self.inputs));
+        self.refresh_basis();
         self.scratch = None;
         self.reanchor_now()
     }
@@ -645,13 +742,26 @@ impl Simulation {
         self.advance_to(self.state.time)
     }
 
-    /// The contact states that shape the phase (the key of its system).
+    /// Derives the dynamics and the stops' geometry from the model, the
+    /// inputs and the state (after a change of basis or of the model).
+    fn refresh_basis(&mut self) {
+        self.dynamics = phase_dynamics(&self.model, &self.inputs, &self.state);
+        self.geometries = active_geometries(&self.model, &self.state);
+        self.gap_functionals = self.geometries.iter().map(|g| g.gap_functional()).collect();
+        self.scratch = None;
+    }
+
+    /// The contact states that shape the phase (the key of its system). A
+    /// pressed mode-transfer stop is part of the basis, not of the phase.
     fn phase_key(&self) -> Vec<Contact> {
+        let transfer = self.model.transfer.as_ref().map(|tr| tr.stop);
         self.model
             .stops
             .iter()
             .zip(&self.state.stops)
-            .map(|(m, s)| match m.law.term(s.contact) {
+            .enumerate()
+            .map(|(i, (m, s))| match m.law.term(s.contact) {
+                _ if transfer == Some(i) => Contact::Open,
                 PhaseTerm::None => Contact::Open,
                 _ => s.contact,
             })
@@ -699,16 +809,64 @@ impl Simulation {
         DVector::from_vec(targets)
     }
 
-    /// The loads of the current phase: the model's, plus the preload
-    /// `k target w` of each pressed compliant stop.
-    fn phase_forcing(&self) -> ModalForcing {
-        let mut f = self.dynamics.forcing.clone();
-        for (m, s) in self.model.stops.iter().zip(&self.state.stops) {
+    /// The loads of the current phase, the origin its motion is measured
+    /// from and the elastic force at that origin: the origin lies on every
+    /// held stop and on the surface of every pressed compliant stop
+    /// (minimum norm), so the springs' preload `k target w` and their force
+    /// at the origin `k w (w . origin)` cancel analytically, leaving
+    /// `k w (w . origin - target)`, formed from the tiny residual; the
+    /// springs then act on the small deviation only and keep their accuracy
+    /// at any stiffness. Should the surfaces not be independent, the origin
+    /// only satisfies the held stops and the preload joins the loads.
+    /// The last value is the preload left out of the loads.
+    fn phase_loads(&self, system: &CoupledSystem) -> (ModalForcing, DVector<f64>, DVector<f64>, DVector<f64>) {
+        let n = self.model.n_modes();
+        let held = self.held_targets();
+        let base_k = DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega));
+        let mut cols: Vec<DVector<f64>> = Vec::new();
+        let mut targets: Vec<f64> = held.iter().copied().collect();
+        let mut springs: Vec<(f64, usize)> = Vec::new();
+        for (i, (m, s)) in self.model.stops.iter().zip(&self.state.stops).enumerate() {
+            if m.law.term(s.contact) == PhaseTerm::Constraint {
+                cols.push(m.geometry.w.clone());
+            }
             if let PhaseTerm::SpringDashpot { k, .. } = m.law.term(s.contact) {
-                f.constant.axpy(k * m.geometry.target(), &m.geometry.w, 1.0);
+                springs.push((k, i));
             }
         }
-        f
+        for &(_, i) in &springs {
+            cols.push(self.model.stops[i].geometry.w.clone());
+            targets.push(self.model.stops[i].geometry.target());
+        }
+        let mut preload = DVector::zeros(n);
+        for &(k, i) in &springs {
+            let g = &self.model.stops[i].geometry;
+            preload.axpy(k * g.target(), &g.w, 1.0);
+        }
+        let forcing = self.dynamics.forcing.clone();
+        if !springs.is_empty() {
+            let a = nalgebra::DMatrix::from_columns(&cols);
+            let gram = a.transpose() * &a;
+            let (scale, lower) = (gram.diagonal().amax(), gram.diagonal().min());
+            let solved = (lower > 1e-12 * scale).then(|| gram.cholesky().map(|c| &a * c.solve(&DVector::from_vec(targets)))).flatten();
+            if let Some(origin) = solved.filter(|o| o.iter().all(|v| v.is_finite())) {
+                let mut force = origin.component_mul(&base_k);
+                for &(k, i) in &springs {
+                    let g = &self.model.stops[i].geometry;
+                    force.axpy(k * (g.w.dot(&origin) - g.target()), &g.w, 1.0);
+                }
+                return (forcing, origin, force, preload);
+            }
+        }
+        let origin = system.q_c(&held);
+        let mut force = origin.component_mul(&base_k);
+        for &(k, i) in &springs {
+            let g = &self.model.stops[i].geometry;
+            force.axpy(k * g.w.dot(&origin), &g.w, 1.0);
+        }
+        let mut with_preload = forcing;
+        with_preload.constant += &preload;
+        (with_preload, origin, force, DVector::zeros(n))
     }
 
     /// The event function of one watch of stop `i` (non-negative while the
@@ -717,7 +875,7 @@ impl Simulation {
     fn watched_functional(&self, i: usize, watch: Watch) -> Option<Functional> {
         let stop = &self.model.stops[i];
         let force = || match &stop.law {
-            Law::SpringDashpot(l) => l.force_functional(&stop.geometry),
+            Law::SpringDashpot(l) => l.force_functional(&self.geometries[i]),
             Law::Restitution(_) => unreachable!("a rigid stop has no force law"),
         };
         Some(match watch {
@@ -739,6 +897,42 @@ impl Simulation {
             .enumerate()
             .flat_map(|(stop, (m, s))| m.law.watches(s.contact).iter().enumerate().map(move |(slot, &watch)| Channel { stop, slot, watch }))
             .collect();
+        if let Some(damping) = self.model.transfer.as_ref().and_then(|tr| tr.damping.as_ref()).filter(|_| self.in_transfer()) {
+            // Mode transfer in contact with the structure's damping projected
+            // on the contact modes: non-proportional, so a coupled phase.
+            let system = match &self.transfer_system {
+                Some(s) => s.clone(),
+                None => {
+                    let tr = self.model.transfer.as_ref().expect("in transfer");
+                    let k = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(tr.oscillators.len(), tr.oscillators.iter().map(|o| o.omega * o.omega)));
+                    let n = k.nrows();
+                    let s = Arc::new(CoupledSystem::new(k, damping.clone(), nalgebra::DMatrix::zeros(n, 0))?);
+                    self.transfer_system = Some(s.clone());
+                    s
+                }
+            };
+            let n = self.model.n_modes();
+            let forcing = self.dynamics.forcing.clone();
+            let segment = CoupledSegment::new(&system, &forcing, &DVector::zeros(n), &DVector::zeros(n), self.state.anchor_time, &self.state.anchor);
+            let f0 = DVector::zeros(n);
+            let events = self
+                .channels
+                .iter()
+                .map(|ch| {
+                    let mut h = self.watched_functional(ch.stop, ch.watch).expect("no held stop with mode transfer");
+                    // As in free flight: a function the switch put on its
+                    // boundary is measured from its value there (MTM's
+                    // projection moves the tip off the stop by truncation).
+                    if self.state.stops[ch.stop].departing[ch.slot] {
+                        h.offset -= h.value(&self.state.anchor, &f0);
+                    }
+                    segment.project_functional(&system, &h)
+                })
+                .collect();
+            let reactions = vec![None; self.model.stops.len()];
+            self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
+            return Ok(());
+        }
         let key = self.phase_key();
         if key.iter().all(|c| *c == Contact::Open) {
             let anchor = &self.state.anchor;
@@ -756,13 +950,19 @@ impl Simulation {
             return Ok(());
         }
         let system = self.coupled_system(&key)?;
-        let targets = self.held_targets();
-        let forcing = self.phase_forcing();
-        let segment = CoupledSegment::new(&system, &forcing, &targets, self.state.anchor_time, &self.state.anchor);
+        let (forcing, origin, origin_force, preload) = self.phase_loads(&system);
+        let segment = CoupledSegment::new(&system, &forcing, &origin, &origin_force, self.state.anchor_time, &self.state.anchor);
         let mut reactions_by_column = system.reaction_functionals().into_iter();
         let reactions: Vec<Option<Functional>> = key
             .iter()
-            .map(|c| if *c == Contact::Held { Some(reactions_by_column.next().expect("one reaction per held stop")) } else { None })
+            .map(|c| {
+                (*c == Contact::Held).then(|| {
+                    let mut r = reactions_by_column.next().expect("one reaction per held stop");
+                    // The springs' preload, kept out of the loads, still loads the constraint.
+                    r.offset += r.f.as_ref().map_or(0.0, |f| f.dot(&preload));
+                    r
+                })
+            })
             .collect();
         let events = self
             .channels
@@ -928,6 +1128,10 @@ impl Simulation {
                 return Err(SimError::TooManyEvents { time: l, count });
             }
             self.handle_events(l, st.clone(), at_zero)?;
+            if std::mem::take(&mut self.basis_changed) {
+                *buffers = ProbeBuffers::new(&self.dynamics);
+                *st = ModalState::zeros(self.model.n_modes());
+            }
         }
         self.account(t_end);
         self.state.time = t_end;
@@ -988,7 +1192,7 @@ impl Simulation {
             let Channel { stop: i, slot, watch } = self.channels[c];
             let m = &self.model.stops[i];
             let contact = self.state.stops[i].contact;
-            match m.law.on_zero(contact, watch, &jet, &m.geometry, &st) {
+            match m.law.on_zero(contact, watch, &jet, &self.geometries[i], &st) {
                 Switch::Stay => departing[i][slot] = true,
                 Switch::Graze => {
                     departing[i][slot] = true;
@@ -1035,7 +1239,7 @@ impl Simulation {
                     self.record(t, EventKind::Contact { stop: i, speed: rate });
                 }
                 Contact::Open | Contact::Penetrated if was[i] == Contact::Pressed => {
-                    let penetration = m.geometry.penetration(&st.q).max(0.0);
+                    let penetration = self.geometries[i].penetration(&st.q).max(0.0);
                     if let Law::SpringDashpot(l) = &m.law {
                         // The spring's energy left in the stop is its own.
                         counters.dissipated += 0.5 * l.k * penetration * penetration;
@@ -1043,6 +1247,33 @@ impl Simulation {
                     self.record(t, EventKind::Separation { stop: i, penetration });
                 }
                 _ => {}
+            }
+        }
+        // Mode transfer (seed 001): entering or leaving contact changes the
+        // basis; MTM projects both fields on the new modes, RMTM freezes the
+        // displacement and projects the velocity (docs/mode_transfer.md).
+        let mut basis_changed = false;
+        if let Some(tr) = &self.model.transfer {
+            let i = tr.stop;
+            let into = was[i] != Contact::Pressed && contact[i] == Contact::Pressed;
+            let out = was[i] == Contact::Pressed && contact[i] != Contact::Pressed;
+            if into || out {
+                let f = self.state.frozen.as_mut().expect("a mode-transfer model keeps a frozen shape");
+                let t = &tr.overlap;
+                let project = |v: &DVector<f64>| if into { t * v } else { t.tr_mul(v) };
+                match tr.method {
+                    ContactMethod::Rmtm => {
+                        if into {
+                            f.c += &st.q;
+                        } else {
+                            f.d += &st.q;
+                        }
+                        st.q.fill(0.0);
+                    }
+                    _ => st.q = project(&st.q),
+                }
+                st.qd = project(&st.qd);
+                basis_changed = true;
             }
         }
         // The impact: impacting stops with their restitution, newly pressed
@@ -1131,6 +1362,10 @@ impl Simulation {
         self.state.anchor = st;
         self.state.anchor_time = t;
         self.state.scan = t;
+        if basis_changed {
+            self.refresh_basis();
+            self.basis_changed = true;
+        }
         self.rebuild_segment()?;
         // Report the sticks with their initial reaction.
         for i in newly_held {
@@ -1209,4 +1444,51 @@ impl Scan {
             Probe::Events(self.at_zero)
         }
     }
+}
+
+/// The free dynamics of the current basis: the structure's modes, or with
+/// mode transfer in contact the tip-spring modes (seed 001), each with the
+/// constant load its frozen shape and the spring's preload exert
+/// (docs/mode_transfer.md: `-omega^2 r` apart, `k target Phi(L) -
+/// omega~^2 s` in contact, `r = c + T^T d`, `s = T c + d`).
+fn phase_dynamics(model: &Model, inputs: &[f64], state: &SimState) -> FreeDynamics {
+    let (Some(tr), Some(f)) = (&model.transfer, &state.frozen) else {
+        return FreeDynamics::new(model.oscillators.clone(), model.forcing_with_inputs(inputs));
+    };
+    if state.stops[tr.stop].contact == Contact::Pressed {
+        let mut forcing = tr.loads.clone();
+        for (a, u) in tr.inputs.iter().zip(inputs) {
+            forcing.constant.axpy(*u, a, 1.0);
+        }
+        let Law::SpringDashpot(law) = &model.stops[tr.stop].law else { unreachable!("mode transfer needs a spring stop") };
+        forcing.constant.axpy(law.k * model.stops[tr.stop].geometry.target(), &tr.stop_w, 1.0);
+        let s = &tr.overlap * &f.c + &f.d;
+        for (j, o) in tr.oscillators.iter().enumerate() {
+            forcing.constant[j] -= o.omega * o.omega * s[j];
+        }
+        FreeDynamics::new(tr.oscillators.clone(), forcing)
+    } else {
+        let mut forcing = model.forcing_with_inputs(inputs);
+        let r = &f.c + tr.overlap.tr_mul(&f.d);
+        for (j, o) in model.oscillators.iter().enumerate() {
+            forcing.constant[j] -= o.omega * o.omega * r[j];
+        }
+        FreeDynamics::new(model.oscillators.clone(), forcing)
+    }
+}
+
+/// Each stop's geometry in the current basis: with mode transfer, the
+/// transfer stop's shape is `Phi(L)` while pressed, and the frozen shape's
+/// displacement there is taken off its gap.
+fn active_geometries(model: &Model, state: &SimState) -> Vec<Geometry> {
+    let mut out: Vec<Geometry> = model.stops.iter().map(|s| s.geometry.clone()).collect();
+    if let (Some(tr), Some(f)) = (&model.transfer, &state.frozen) {
+        let g = &mut out[tr.stop];
+        let frozen = g.w.dot(&f.c) + tr.stop_w.dot(&f.d);
+        g.gap -= g.side * frozen;
+        if state.stops[tr.stop].contact == Contact::Pressed {
+            g.w = tr.stop_w.clone();
+        }
+    }
+    out
 }

@@ -73,33 +73,62 @@ impl CoupledSystem {
         let (eig, v, v_inv) = if n == 0 {
             (DVector::zeros(0), DMatrix::zeros(0, 0), DMatrix::zeros(0, 0))
         } else {
-            let a = faer::Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| {
-                if i < n {
-                    if j == i + n {
-                        1.0
+            // Energy-scaled first-order form: with `Z^T K Z = Q W^2 Q^T`
+            // (orthogonal Q) and `u = [W Q^T y; Q^T y']`, the system matrix is
+            // `[[0, W], [-W, -Q^T D Q]]`, nearly normal for light damping, so
+            // its eigenvectors are well conditioned however far apart the
+            // frequencies are (a stop 1e12 times stiffer than the structure
+            // included); `[y; y'] = T u` with `T = diag(Q W^-1, Q)`.
+            let sym = ky.clone().symmetric_eigen();
+            let lowest = sym.eigenvalues.min();
+            if !(lowest > 0.0) {
+                return Err(LtiError::Eigen(format!("the stiffness of the contact phase is not positive definite (eigenvalue {lowest:e})")));
+            }
+            let q = sym.eigenvectors;
+            let w_freq = sym.eigenvalues.map(f64::sqrt);
+            let dq = q.transpose() * &dy * &q;
+            let a = faer::Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
+                (true, true) => 0.0,
+                (true, false) => {
+                    if j - n == i {
+                        w_freq[i]
                     } else {
                         0.0
                     }
-                } else if j < n {
-                    -ky[(i - n, j)]
-                } else {
-                    -dy[(i - n, j - n)]
                 }
+                (false, true) => {
+                    if i - n == j {
+                        -w_freq[j]
+                    } else {
+                        0.0
+                    }
+                }
+                (false, false) => -dq[(i - n, j - n)],
             });
             let e = a.eigen().map_err(|e| LtiError::Eigen(format!("{e:?}")))?;
             let s = e.S();
             let u = e.U();
             let eig = DVector::from_fn(2 * n, |k, _| C64::new(s[k].re, s[k].im));
-            let mut v = DMatrix::from_fn(2 * n, 2 * n, |i, j| C64::new(u[(i, j)].re, u[(i, j)].im));
-            for mut col in v.column_iter_mut() {
+            let mut vu = DMatrix::from_fn(2 * n, 2 * n, |i, j| C64::new(u[(i, j)].re, u[(i, j)].im));
+            for mut col in vu.column_iter_mut() {
                 let norm = col.norm();
                 col /= C64::new(norm, 0.0);
             }
-            let v_inv = v.clone().try_inverse().ok_or(LtiError::IllConditioned(f64::INFINITY))?;
-            let cond = v.norm() * v_inv.norm();
+            let vu_inv = vu.clone().try_inverse().ok_or(LtiError::IllConditioned(f64::INFINITY))?;
+            let cond = vu.norm() * vu_inv.norm();
             if !(cond < 1e10) {
                 return Err(LtiError::IllConditioned(cond));
             }
+            let qc = q.map(|x| C64::new(x, 0.0));
+            let top = DMatrix::from_fn(n, n, |i, j| qc[(i, j)] / w_freq[j]);
+            let mut v = DMatrix::zeros(2 * n, 2 * n);
+            v.view_mut((0, 0), (n, 2 * n)).copy_from(&(&top * vu.rows(0, n)));
+            v.view_mut((n, 0), (n, 2 * n)).copy_from(&(&qc * vu.rows(n, n)));
+            let qt = qc.transpose();
+            let scaled_qt = DMatrix::from_fn(n, n, |i, j| qt[(i, j)] * w_freq[i]);
+            let mut v_inv = DMatrix::zeros(2 * n, 2 * n);
+            v_inv.view_mut((0, 0), (2 * n, n)).copy_from(&(vu_inv.columns(0, n) * &scaled_qt));
+            v_inv.view_mut((0, n), (2 * n, n)).copy_from(&(vu_inv.columns(n, n) * &qt));
             (eig, v, v_inv)
         };
         Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv })
@@ -119,7 +148,7 @@ impl CoupledSystem {
     }
 
     /// `q_c`, the minimum-norm solution of `W^T q = targets`.
-    fn q_c(&self, targets: &DVector<f64>) -> DVector<f64> {
+    pub fn q_c(&self, targets: &DVector<f64>) -> DVector<f64> {
         &self.w * (&self.gram_inv * targets)
     }
 
@@ -201,16 +230,25 @@ pub struct CoupledSegment {
 }
 
 impl CoupledSegment {
-    /// `targets` are the constraint values `W^T q` (the stops' positions).
+    /// `origin` is the point the motion is measured from: it must satisfy
+    /// the constraints `W^T q = targets` (the held stops' positions; for
+    /// instance [`CoupledSystem::q_c`]). Choosing it on the surfaces of
+    /// pressed compliant stops too keeps their large preload `k target w`
+    /// out of the loads: the spring then acts on the small deviation only.
+    /// `origin_force` is what the phase's stiffness exerts at the origin
+    /// net of any preload the loads leave out (`K origin` when there is none;
+    /// the caller forms it without the cancellation `k w (w . origin) - k
+    /// w target` would cost).
     pub fn new(
         sys: &CoupledSystem,
         forcing: &ModalForcing,
-        targets: &DVector<f64>,
+        origin: &DVector<f64>,
+        origin_force: &DVector<f64>,
         t0: f64,
         start: &ModalState,
     ) -> Self {
         let n = sys.n_free();
-        let q_c = sys.q_c(targets);
+        let q_c = origin.clone();
         let zt = sys.z.transpose();
         let y0 = &zt * (&start.q - &q_c);
         let yd0 = &zt * &start.qd;
@@ -221,8 +259,7 @@ impl CoupledSegment {
             let x = DVector::from_fn(2 * n, |i, _| if i < n { C64::new(0.0, 0.0) } else { fy[i - n] });
             &sys.v_inv * x
         };
-        let kqc = &sys.k * &q_c;
-        let c = &zt * (&forcing.constant - kqc);
+        let c = &zt * (&forcing.constant - origin_force);
         let g_const = lift(c.map(|x| C64::new(x, 0.0)));
         let mut harmonics = Vec::new();
         let mut push = |omega: f64, g: DVector<C64>| {
@@ -329,12 +366,15 @@ impl CoupledSegment {
         let t = sample.t;
         let mut jet = Jet::default();
         let mut zm = sample.z.clone();
+        // The size of the terms summed into z^(m): the rounding it carries.
+        let mut zsize: Vec<f64> = zm.iter().map(|z| z.norm()).collect();
         let mut fbuf = DVector::zeros(forcing.len());
         for m in 0..4 {
             if m > 0 {
                 // z^(m) = L z^(m-1) + g^(m-1)
                 for k in 0..zm.len() {
                     zm[k] = sys.eig[k] * zm[k] + sample.loads[m - 1][k];
+                    zsize[k] = sys.eig[k].norm() * zsize[k] + sample.loads[m - 1][k].norm();
                 }
             }
             let mut value = if m == 0 { p.offset } else { 0.0 };
@@ -342,7 +382,7 @@ impl CoupledSegment {
             for k in 0..zm.len() {
                 let term = p.c[k] * zm[k];
                 value += term.re;
-                size += term.norm();
+                size += p.c[k].norm() * zsize[k];
             }
             if let Some(cf) = &p.f {
                 forcing.derivative(t, m as u32, &mut fbuf);
@@ -471,7 +511,8 @@ mod tests {
         sys.project(&targets, &mut start);
         assert!((w.column(0).dot(&start.q) - 0.25).abs() < 1e-15);
         let t0 = 0.4;
-        let seg = CoupledSegment::new(&sys, &forcing, &targets, t0, &start);
+        let q_c = sys.q_c(&targets);
+        let seg = CoupledSegment::new(&sys, &forcing, &q_c, &(&k * &q_c), t0, &start);
         let mut out = ModalState::zeros(n);
         let t1 = 2.9;
         seg.state_at(&sys, t1, &mut out);
@@ -519,7 +560,7 @@ mod tests {
         forcing.add_harmonic(3.9, dvector![C64::new(0.0, -1.0), C64::new(0.3, 0.0), C64::new(0.0, 0.2)]);
         let start = ModalState { q: dvector![0.3, -0.1, 0.05], qd: dvector![0.2, 0.1, -0.4] };
         let t0 = 0.4;
-        let seg = CoupledSegment::new(&sys, &forcing, &DVector::zeros(0), t0, &start);
+        let seg = CoupledSegment::new(&sys, &forcing, &DVector::zeros(n), &DVector::zeros(n), t0, &start);
         let t1 = 3.1;
         let exact = seg.integral_q(&sys, t1);
         let mut sum = DVector::zeros(n);

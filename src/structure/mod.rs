@@ -3,9 +3,11 @@
 
 pub mod beam;
 pub mod chain;
+pub mod tip_spring;
 
 pub use beam::{Beam, Support};
 pub use chain::Chain;
+pub use tip_spring::TipSpringCantilever;
 
 /// Where on a structure something acts or is measured.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -105,7 +105,7 @@ def nontrivial(fmu: Path, rows: list[dict]) -> None:
     """The run covers impacts and motion, and no output is NaN or infinite."""
     types = kinds(fmu)
     assert set(rows[0]) == set(types), "every output is read"
-    counts = [name for name in types if name.endswith("impacts")]
+    counts = [name for name in types if name.endswith(("impacts", "contacts"))]
     assert counts, f"{fmu.name}: no impact count among the outputs"
     assert all(rows[-1][c] >= 1 for c in counts), f"{fmu.name}: a stop never hit: {[(c, rows[-1][c]) for c in counts]}"
     reals = [name for name, t in types.items() if t == "Real"]

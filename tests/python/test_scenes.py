@@ -19,12 +19,16 @@ SCENES = {
     "WaggBishopCantilever1": "wagg_bishop_cantilever_1mode",
     "WaggBishopCantilever4": "wagg_bishop_cantilever_4mode",
     "SteelCantileverStop": "steel_cantilever",
+    "SpringStopSoft": "spring_stop_soft",
+    "SpringStopHard": "spring_stop_hard",
+    "SpringStopVeryHard": "spring_stop_very_hard",
 }
 
 def modal(n, *patterns):
     return {p.format(j=j) for p in patterns for j in range(1, n + 1)}
 
-STOP_OUTPUTS = {"w", "v", "impacts", "t_last_impact", "sticking", "lambda"}
+STOP_OUTPUTS = {"w", "v", "impacts", "t_last_impact", "sticking", "lambda", "impulse"}
+SPRING_STOP_OUTPUTS = {"w", "v", "force", "penetration", "contact", "contacts", "t_last_contact", "E_stored", "E_dissipated", "impulse"}
 
 # What each FMU must expose, written out by hand from the scene descriptions.
 EXPECTED = {
@@ -43,6 +47,11 @@ EXPECTED = {
         "force.x", "force", "a_clamp", "energy",
     } | modal(8, "q0[{j}]", "qd0[{j}]"),
 }
+for name, modes in (("SpringStopSoft", 5), ("SpringStopHard", 20), ("SpringStopVeryHard", 20)):
+    EXPECTED[name] = {
+        "shaker.amplitude", "shaker.omega", "zeta", "stop.k", "stop.c", "stop.gap", "stop.x",
+        *(f"stop.{o}" for o in SPRING_STOP_OUTPUTS), "tip.x", "root.x", "tip.w", "tip.v", "root.M", "energy",
+    } | modal(modes, "q0[{j}]", "qd0[{j}]")
 EXPECTED["WaggBishopCantilever4"] = (EXPECTED["WaggBishopCantilever1"] - modal(1, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")) | modal(
     4, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")
 
