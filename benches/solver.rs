@@ -23,7 +23,7 @@ fn figure10() -> Scene {
     ParamKey::LoadAmplitude(0).set(&mut s, 72.0);
     ParamKey::LoadOmega(0).set(&mut s, 0.7 * PI * PI);
     ParamKey::StopGap(0).set(&mut s, 1.2);
-    ParamKey::ChatterEps(0).set(&mut s, 1e-3);
+    ParamKey::Law(0, 1).set(&mut s, 1e-3);
     s
 }
 

@@ -18,7 +18,7 @@ fn main() {
 
     let mut free = figure4.clone();
     ParamKey::LoadAmplitude(0).set(&mut free, 0.0);
-    ParamKey::Restitution(0).set(&mut free, 1.0);
+    ParamKey::Law(0, 0).set(&mut free, 1.0);
     ParamKey::Zeta.set(&mut free, 0.0);
     ParamKey::InitialQ(0).set(&mut free, -3.0 / SQRT_2);
     let mut sim = Simulation::new(Model::build(&free).unwrap(), 0.0).unwrap();

@@ -58,7 +58,7 @@ fn main() {
     for (scene_name, label) in [("wagg_bishop_cantilever_1mode", "1 mode"), ("wagg_bishop_cantilever_4mode", "4 modes")] {
         for r in [0.2, 0.75] {
             let mut s = load(scene_name);
-            ParamKey::Restitution(0).set(&mut s, r);
+            ParamKey::Law(0, 0).set(&mut s, r);
             let model = Model::build(&s).unwrap();
             let tip = model.sensors[0].w.clone();
             let mut sim = Simulation::new(model, 0.0).unwrap();

@@ -7,62 +7,7 @@
 
 use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, StopLaw, Units};
 
-/// Physical units, as SI exponents (kg, m, s, rad).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Unit {
-    One,
-    Metre,
-    Second,
-    MetrePerSecond,
-    MetrePerSecond2,
-    Newton,
-    NewtonPerMetre,
-    NewtonMetre,
-    Joule,
-    RadianPerSecond,
-    NewtonSecondPerMetre,
-    NewtonSecond,
-    /// Viscous damping per unit length, N s / m^2.
-    NewtonSecondPerMetre2,
-}
-
-impl Unit {
-    pub fn name(self) -> &'static str {
-        match self {
-            Unit::One => "1",
-            Unit::Metre => "m",
-            Unit::Second => "s",
-            Unit::MetrePerSecond => "m/s",
-            Unit::MetrePerSecond2 => "m/s2",
-            Unit::Newton => "N",
-            Unit::NewtonPerMetre => "N/m",
-            Unit::NewtonMetre => "N.m",
-            Unit::Joule => "J",
-            Unit::RadianPerSecond => "rad/s",
-            Unit::NewtonSecondPerMetre => "N.s/m",
-            Unit::NewtonSecond => "N.s",
-            Unit::NewtonSecondPerMetre2 => "N.s/m2",
-        }
-    }
-
-    /// Exponents of kg, m, s, rad.
-    pub fn si_exponents(self) -> [i32; 4] {
-        match self {
-            Unit::One => [0, 0, 0, 0],
-            Unit::Metre => [0, 1, 0, 0],
-            Unit::Second => [0, 0, 1, 0],
-            Unit::MetrePerSecond => [0, 1, -1, 0],
-            Unit::MetrePerSecond2 => [0, 1, -2, 0],
-            Unit::Newton => [1, 1, -2, 0],
-            Unit::NewtonPerMetre => [1, 0, -2, 0],
-            Unit::NewtonMetre | Unit::Joule => [1, 2, -2, 0],
-            Unit::RadianPerSecond => [0, 0, -1, 1],
-            Unit::NewtonSecondPerMetre => [1, 0, -1, 0],
-            Unit::NewtonSecond => [1, 1, -1, 0],
-            Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
-        }
-    }
-}
+pub use crate::units::Unit;
 
 /// A quantity's unit in the scene's unit system (everything is "1" scaled).
 fn unit(scene: &Scene, u: Unit) -> Unit {
@@ -81,10 +26,8 @@ pub enum ParamKey {
     Zeta,
     ZetaMode(usize),
     Viscous,
-    Restitution(usize),
-    ChatterEps(usize),
-    StopStiffness(usize),
-    StopDamping(usize),
+    /// Parameter `k` of stop `i`'s law (in the law's own order).
+    Law(usize, usize),
     StopGap(usize),
     StopPosition(usize),
     SensorPosition(usize),
@@ -104,10 +47,6 @@ fn load_fields(load: &mut Load) -> (&mut f64, &mut f64, Option<&mut Option<f64>>
 
 impl ParamKey {
     pub fn get(&self, scene: &Scene) -> f64 {
-        let law = |i: usize| match scene.stops[i].law {
-            StopLaw::Restitution { restitution, eps } => (restitution, eps),
-            StopLaw::SpringDashpot { k, c, .. } => (k, c),
-        };
         let load = |i: usize| match &scene.loads[i] {
             Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
                 (*amplitude, *omega, None)
@@ -122,10 +61,7 @@ impl ParamKey {
             ParamKey::Zeta => damping.and_then(|d| d.zeta).unwrap_or(0.0),
             ParamKey::ZetaMode(j) => damping.and_then(|d| d.zeta_modes.as_ref()).and_then(|z| z.get(j).copied()).unwrap_or(0.0),
             ParamKey::Viscous => damping.and_then(|d| d.viscous).unwrap_or(0.0),
-            ParamKey::Restitution(i) => law(i).0,
-            ParamKey::ChatterEps(i) => law(i).1,
-            ParamKey::StopStiffness(i) => law(i).0,
-            ParamKey::StopDamping(i) => law(i).1,
+            ParamKey::Law(i, k) => scene.stops[i].law.value(k),
             ParamKey::StopGap(i) => scene.stops[i].gap,
             ParamKey::StopPosition(i) => scene.stops[i].x.unwrap_or(0.0),
             ParamKey::SensorPosition(i) => scene.sensors[i].x.unwrap_or(0.0),
@@ -142,10 +78,6 @@ impl ParamKey {
     /// The value's place in the scene (creating defaults where it is implied).
     fn slot<'a>(&self, scene: &'a mut Scene) -> &'a mut f64 {
         let n = scene.n_modes();
-        let law = |s: &'a mut crate::scene::Stop| match &mut s.law {
-            StopLaw::Restitution { restitution, eps } => (restitution, eps),
-            StopLaw::SpringDashpot { k, c, .. } => (k, c),
-        };
         match *self {
             ParamKey::LoadAmplitude(i) => load_fields(&mut scene.loads[i]).0,
             ParamKey::LoadOmega(i) => load_fields(&mut scene.loads[i]).1,
@@ -153,10 +85,7 @@ impl ParamKey {
             ParamKey::Zeta => scene.damping.get_or_insert_with(Default::default).zeta.get_or_insert(0.0),
             ParamKey::ZetaMode(j) => &mut scene.damping.get_or_insert_with(Default::default).zeta_modes.get_or_insert_with(Vec::new)[j],
             ParamKey::Viscous => scene.damping.get_or_insert_with(Default::default).viscous.get_or_insert(0.0),
-            ParamKey::Restitution(i) => law(&mut scene.stops[i]).0,
-            ParamKey::ChatterEps(i) => law(&mut scene.stops[i]).1,
-            ParamKey::StopStiffness(i) => law(&mut scene.stops[i]).0,
-            ParamKey::StopDamping(i) => law(&mut scene.stops[i]).1,
+            ParamKey::Law(i, k) => scene.stops[i].law.value_mut(k),
             ParamKey::StopGap(i) => &mut scene.stops[i].gap,
             ParamKey::StopPosition(i) => scene.stops[i].x.get_or_insert(0.0),
             ParamKey::SensorPosition(i) => scene.sensors[i].x.get_or_insert(0.0),
@@ -370,6 +299,16 @@ impl Limits {
         Range::closed(0.0, MAX_ZETA)
     }
 
+    /// The range a law parameter of this kind may take.
+    pub fn law_range(&self, kind: crate::contact::RangeKind) -> Range {
+        match kind {
+            crate::contact::RangeKind::Unit => Range::UNIT,
+            crate::contact::RangeKind::Duration => self.duration_range(),
+            crate::contact::RangeKind::Stiffness => self.stop_stiffness_range(),
+            crate::contact::RangeKind::Damping => self.stop_damping_range(),
+        }
+    }
+
     /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness
     /// `m omega_low^2` of the slowest mode (seed 001's hardest case, kappa =
     /// 1e4, is about 1e-10 of it): beyond, the contact phase's frequency
@@ -470,41 +409,16 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
     }
     for (i, stop) in scene.stops.iter().enumerate() {
         let (n, s) = (&stop.names, &stop.name);
-        match stop.law {
-            StopLaw::Restitution { .. } => {
-                push(ParamKey::Restitution(i), named(n, s, "R"), format!("stops[{i}].law.R"), format!("Coefficient of restitution at stop '{s}'"), Unit::One, Range::UNIT, true);
-                push(
-                    ParamKey::ChatterEps(i),
-                    named(n, s, "eps"),
-                    format!("stops[{i}].law.eps"),
-                    format!(
-                        "Chatter threshold at stop '{s}': an impact sooner than eps after the previous one ends the chatter with R = 0 and starts sticking"
-                    ),
-                    Unit::Second,
-                    limits.duration_range(),
-                    true,
-                );
-            }
-            StopLaw::SpringDashpot { .. } => {
-                push(
-                    ParamKey::StopStiffness(i),
-                    named(n, s, "k"),
-                    format!("stops[{i}].law.k"),
-                    format!("Stiffness of the compliant stop '{s}' (force k p + c p', p the penetration)"),
-                    Unit::NewtonPerMetre,
-                    limits.stop_stiffness_range(),
-                    true,
-                );
-                push(
-                    ParamKey::StopDamping(i),
-                    named(n, s, "c"),
-                    format!("stops[{i}].law.c"),
-                    format!("Damping of the compliant stop '{s}' (the stop pushes, never pulls)"),
-                    Unit::NewtonSecondPerMetre,
-                    limits.stop_damping_range(),
-                    true,
-                );
-            }
+        for (k, spec) in stop.law.parameters().iter().enumerate() {
+            push(
+                ParamKey::Law(i, k),
+                named(n, s, spec.key),
+                format!("stops[{i}].law.{}", spec.key),
+                spec.description.replace("{stop}", s),
+                spec.unit,
+                limits.law_range(spec.range),
+                spec.tunable,
+            );
         }
         push(
             ParamKey::StopGap(i),
@@ -582,7 +496,7 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
         push(OutputKey::StopDisplacement(i), named(n, s, "w"), format!("Displacement at stop '{s}'"), Unit::Metre, real, false);
         push(OutputKey::StopVelocity(i), named(n, s, "v"), format!("Velocity at stop '{s}'"), Unit::MetrePerSecond, real, false);
         match stop.law {
-            StopLaw::Restitution { .. } => {
+            StopLaw::Restitution(_) => {
                 push(OutputKey::StopImpacts(i), named(n, s, "impacts"), format!("Number of impacts at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
                 push(
                     OutputKey::StopLastImpact(i),
@@ -602,7 +516,7 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
                     false,
                 );
             }
-            StopLaw::SpringDashpot { .. } => {
+            StopLaw::SpringDashpot(_) => {
                 push(OutputKey::StopForce(i), named(n, s, "force"), format!("Force of stop '{s}', max(0, k p + c p') while in contact (>= 0, pushing the structure away)"), Unit::Newton, real, false);
                 push(OutputKey::StopPenetration(i), named(n, s, "penetration"), format!("Penetration p of stop '{s}' (negative: the clearance left)"), Unit::Metre, real, false);
                 push(OutputKey::StopContact(i), named(n, s, "contact"), format!("Whether stop '{s}' pushes (in contact)"), Unit::One, OutputType::Boolean, true);

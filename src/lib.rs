@@ -14,6 +14,7 @@ pub mod scene;
 pub mod sim;
 pub mod solve;
 pub mod structure;
+pub mod units;
 
 pub use model::Model;
 pub use scene::Scene;

@@ -8,7 +8,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
-use crate::contact::{Geometry, Law, Restitution, SpringDashpot};
+use crate::contact::{Geometry, Law};
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
 use crate::structure::{tip_spring, Beam, Chain, Point, Structure, Support, TipSpringCantilever};
 
@@ -215,10 +215,7 @@ impl Model {
                     s.at()
                 )));
             }
-            let law = match s.law {
-                StopLaw::Restitution { restitution, eps } => Law::Restitution(Restitution { restitution, chatter_eps: eps }),
-                StopLaw::SpringDashpot { k, c, .. } => Law::SpringDashpot(SpringDashpot { k, c }),
-            };
+            let law: Law = s.law.clone();
             let side = match s.side {
                 Side::Positive => 1.0,
                 Side::Negative => -1.0,
@@ -242,9 +239,9 @@ impl Model {
         let inputs = project_inputs(scene, &shape_at, &inertial);
         let mut transfer = None;
         for (i, s) in scene.stops.iter().enumerate() {
-            if let (StopLaw::SpringDashpot { k, method, transfer_damping, .. }, Structure::Beam(b)) = (&s.law, &structure) {
-                if *method != ContactMethod::Fim {
-                    transfer = Some(TransferBasis::build(scene, b, i, (*k, *method, *transfer_damping), &zeta));
+            if let (StopLaw::SpringDashpot(l), Structure::Beam(b)) = (&s.law, &structure) {
+                if l.method != ContactMethod::Fim {
+                    transfer = Some(TransferBasis::build(scene, b, i, (l.k, l.method, l.transfer_damping), &zeta));
                 }
             }
         }

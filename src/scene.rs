@@ -209,72 +209,10 @@ pub struct Stop {
     pub names: Names,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum StopLaw {
-    /// Rigid stop: modal restitution rule (seed 000 eq. 28), chatter threshold
-    /// `eps` ending in sticking (seed 000 section 2.2).
-    Restitution {
-        #[serde(rename = "R")]
-        restitution: f64,
-        eps: f64,
-    },
-    /// Compliant stop: `F = max(0, k p + c p')`, `p` the penetration
-    /// (a spring, seed 001, with an optional dashpot), in contact phases
-    /// solved exactly.
-    SpringDashpot {
-        k: f64,
-        c: f64,
-        /// How contact phases are represented (seed 001's three methods).
-        #[serde(default, skip_serializing_if = "ContactMethod::is_fim")]
-        method: ContactMethod,
-        /// With mode transfer: how the contact modes are damped.
-        #[serde(default, skip_serializing_if = "TransferDamping::is_modal")]
-        transfer_damping: TransferDamping,
-    },
-}
-
-/// The damping of the contact modes under mode transfer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum TransferDamping {
-    /// The structure's modal damping ratio on every contact mode (seed 001:
-    /// "adding damping" in each basis).
-    #[default]
-    Modal,
-    /// The structure's own damping operator projected on the contact modes,
-    /// `T diag(2 zeta omega) T^T`: the damping force-integration applies, so
-    /// the three methods then solve the same continuum.
-    Inherited,
-}
-
-impl TransferDamping {
-    pub fn is_modal(&self) -> bool {
-        *self == TransferDamping::Modal
-    }
-}
-
-/// Seed 001's three ways of solving a contact phase of a tip spring stop.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum ContactMethod {
-    /// Force integration: the stop's force on the structure's own modes
-    /// (`K + k w w^T`), exact for that Galerkin model.
-    #[default]
-    Fim,
-    /// Mode transfer: while in contact, the modes of the cantilever with
-    /// the tip spring; both fields projected at every switch.
-    Mtm,
-    /// Relative mode transfer: the motion after each switch is an
-    /// increment, in the new modes, over the shape frozen at the switch.
-    Rmtm,
-}
-
-impl ContactMethod {
-    pub fn is_fim(&self) -> bool {
-        *self == ContactMethod::Fim
-    }
-}
+/// A stop's law: the contact law types are their own schema
+/// (`crate::contact`).
+pub use crate::contact::Law as StopLaw;
+pub use crate::contact::spring_dashpot::{ContactMethod, TransferDamping};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -659,7 +597,7 @@ impl Scene {
         for (i, s) in self.stops.iter().enumerate() {
             unique(format!("stops[{i}].name"), &s.name)?;
             self.check_location(&format!("stops[{i}]"), &s.at())?;
-            if let StopLaw::SpringDashpot { method, c, .. } = s.law {
+            if let StopLaw::SpringDashpot(crate::contact::SpringDashpot { method, c, .. }) = s.law {
                 if method != ContactMethod::Fim {
                     let length = self.section()?.map_or(1.0, |s| s.length);
                     let cantilever = matches!(self.structure, StructureSpec::Beam { support: SupportKind::ClampedFree, .. });

@@ -226,7 +226,7 @@ fn a_stiff_stop_with_matched_damping_approaches_the_rigid_restitution_rule() {
         let w = model.stops[0].geometry.w.clone();
         let m_eff = 1.0 / w.dot(&w);
         let c = 2.0 * zeta * (k * m_eff).sqrt();
-        s.stops[0].law = beamstop::scene::StopLaw::SpringDashpot { k, c, method: Default::default(), transfer_damping: Default::default() };
+        s.stops[0].law = beamstop::scene::StopLaw::SpringDashpot(beamstop::contact::SpringDashpot { k, c, method: Default::default(), transfer_damping: Default::default() });
         let mut sim = Simulation::new(Model::build(&s).unwrap(), 0.0).unwrap();
         let mut approach = None;
         let mut rebound = None;

@@ -31,7 +31,7 @@ fn free_vibration(r: f64) -> Scene {
         pinned_scene(),
         &[
             (ParamKey::LoadAmplitude(0), 0.0),
-            (ParamKey::Restitution(0), r),
+            (ParamKey::Law(0, 0), r),
             (ParamKey::Zeta, 0.0),
             (ParamKey::InitialQ(0), -3.0 / SQRT_2),
         ],
@@ -96,7 +96,7 @@ fn energy_lost_per_impact_is_the_restitution_formula() {
 
 #[test]
 fn every_impact_puts_the_contact_point_exactly_on_the_stop() {
-    let scene = with(pinned_scene(), &[(ParamKey::ChatterEps(0), 1e-3)]);
+    let scene = with(pinned_scene(), &[(ParamKey::Law(0, 1), 1e-3)]);
     let mut s = sim(&scene);
     s.advance_to(20.0).unwrap();
     let times = impact_times(&mut s);
@@ -316,7 +316,7 @@ fn impact_times_match_an_independent_rk4_integration() {
             (ParamKey::LoadAmplitude(0), 72.0),
             (ParamKey::LoadOmega(0), omega),
             (ParamKey::StopGap(0), 1.2),
-            (ParamKey::ChatterEps(0), 1e-3),
+            (ParamKey::Law(0, 1), 1e-3),
         ],
     );
     let t_end = 3.0 * 2.0 * PI / omega;

@@ -47,7 +47,7 @@ fn figure10() -> Scene {
             (ParamKey::LoadAmplitude(0), 72.0),
             (ParamKey::LoadOmega(0), 0.7 * PI * PI),
             (ParamKey::StopGap(0), 1.2),
-            (ParamKey::ChatterEps(0), 1e-3),
+            (ParamKey::Law(0, 1), 1e-3),
         ],
     )
 }
@@ -150,12 +150,12 @@ fn restitution_zero_and_one() {
     // Pass, R = 0: every impact plastic, the beam sticks or leaves with zero
     // velocity; R = 1 without damping or load: energy constant to 1e-11
     // over 1000 impacts.
-    let mut w = Watch::new(&balanced(with(figure10(), &[(ParamKey::Restitution(0), 0.0)])));
+    let mut w = Watch::new(&balanced(with(figure10(), &[(ParamKey::Law(0, 0), 0.0)])));
     w.sample(20.0, 400);
     assert!(w.sim.state().stops[0].impacts > 5);
     let free = balanced(with(
         pinned(),
-        &[(ParamKey::LoadAmplitude(0), 0.0), (ParamKey::Restitution(0), 1.0), (ParamKey::Zeta, 0.0), (ParamKey::InitialQ(0), -3.0 / SQRT_2)],
+        &[(ParamKey::LoadAmplitude(0), 0.0), (ParamKey::Law(0, 0), 1.0), (ParamKey::Zeta, 0.0), (ParamKey::InitialQ(0), -3.0 / SQRT_2)],
     ));
     let mut w = Watch::new(&free);
     let e0 = w.e0;
@@ -196,7 +196,7 @@ fn grazing() {
                 (ParamKey::Zeta, 0.0),
                 (ParamKey::StopGap(0), 0.5 * w1),
                 (ParamKey::InitialQ(0), -amplitude),
-                (ParamKey::Restitution(0), 1.0),
+                (ParamKey::Law(0, 0), 1.0),
             ],
         );
         let mut w = Watch::new(&scene);
@@ -221,7 +221,7 @@ fn zeno_chatter_as_eps_goes_to_zero() {
     // finite number of impacts (the velocity reaches rounding level).
     let mut stick_times = Vec::new();
     for eps in [1e-3, 1e-6, 1e-9, 1e-12, 0.0] {
-        let mut w = Watch::new(&with(balanced(pinned()), &[(ParamKey::ChatterEps(0), eps)]));
+        let mut w = Watch::new(&with(balanced(pinned()), &[(ParamKey::Law(0, 1), eps)]));
         w.sample(6.6, 66);
         let events = w.sim.drain_events();
         let stick = events.iter().find(|e| e.time > 5.0 && matches!(e.kind, EventKind::Stick { .. })).expect("sticks");
@@ -269,7 +269,7 @@ fn forcing_at_exact_resonance() {
     let exact = alpha * f * ((w1 * t).sin() - w1 * t * (w1 * t).cos()) / (2.0 * w1 * w1);
     let q1 = w.sim.current().q[0];
     assert!((q1 - exact).abs() < 1e-12 * exact.abs().max(1.0), "{q1} vs {exact}");
-    let mut w = Watch::new(&with(scene, &[(ParamKey::StopGap(0), 0.05), (ParamKey::Restitution(0), 0.8)]));
+    let mut w = Watch::new(&with(scene, &[(ParamKey::StopGap(0), 0.05), (ParamKey::Law(0, 0), 0.8)]));
     w.sample(50.0, 500);
     assert!(w.sim.state().stops[0].impacts > 50);
 }
@@ -397,7 +397,7 @@ fn si_steel_beam_and_micro_cantilever_magnitudes() {
 /// `kappa` times the static stiffness `3 EI / L^3`.
 fn spring_stop(kappa: f64) -> Scene {
     let mut scene = common::scene("spring_stop_hard");
-    scene.stops[0].law = beamstop::scene::StopLaw::SpringDashpot { k: kappa * 1050.0, c: 0.0, method: Default::default(), transfer_damping: Default::default() };
+    scene.stops[0].law = beamstop::scene::StopLaw::SpringDashpot(beamstop::contact::SpringDashpot { k: kappa * 1050.0, c: 0.0, method: Default::default(), transfer_damping: Default::default() });
     scene.solver.max_probes_per_step = Some(u64::MAX);
     scene
 }

@@ -7,14 +7,17 @@
 //! terms into one phase, linear time-invariant in every law here, and runs
 //! one certified event search over every watched function.
 //!
-//! Adding a law: a file here with its type and these three answers, a
-//! variant in [`Law`] (the registration below) and one in the scene schema
-//! (`crate::scene::StopLaw`).
+//! A law's type is also its scene schema (`{"type": "<law>", ...}`) and
+//! lists its own parameters ([`ParamSpec`]), which the interface turns into
+//! FMU parameters. Adding a law: a file here with its type, its parameters
+//! and these three answers, and a variant in [`Law`] with its arms (the one
+//! registration).
 
 pub mod restitution;
 pub mod spring_dashpot;
 
 use nalgebra::DVector;
+use serde::{Deserialize, Serialize};
 
 pub use restitution::{apply_impact, ImpactRow, Restitution};
 pub use spring_dashpot::SpringDashpot;
@@ -133,14 +136,61 @@ pub enum Switch {
     Graze,
 }
 
-/// A stop's contact law: the registration of every law.
-#[derive(Clone, Debug, PartialEq)]
+/// A stop's contact law: the registration of every law, and the scene's
+/// `law` object (tagged by `type`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
 pub enum Law {
     Restitution(Restitution),
     SpringDashpot(SpringDashpot),
 }
 
+/// Which of the structure's limits bounds a law parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RangeKind {
+    /// [0, 1].
+    Unit,
+    /// Durations: up to 1000 periods of the slowest mode.
+    Duration,
+    /// Stop stiffnesses.
+    Stiffness,
+    /// Stop damping coefficients.
+    Damping,
+}
+
+/// One real parameter of a law, as the law describes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamSpec {
+    /// The field in the scene's `law` object, and the variable's suffix.
+    pub key: &'static str,
+    /// `{stop}` stands for the stop's name.
+    pub description: &'static str,
+    pub unit: crate::units::Unit,
+    pub range: RangeKind,
+    /// May change between communication steps.
+    pub tunable: bool,
+}
+
 impl Law {
+    pub fn parameters(&self) -> &'static [ParamSpec] {
+        match self {
+            Law::Restitution(_) => Restitution::PARAMETERS,
+            Law::SpringDashpot(_) => SpringDashpot::PARAMETERS,
+        }
+    }
+
+    /// The value of parameter `k` (in the order of [`Self::parameters`]).
+    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
+        match self {
+            Law::Restitution(l) => l.value_mut(k),
+            Law::SpringDashpot(l) => l.value_mut(k),
+        }
+    }
+
+    pub fn value(&self, k: usize) -> f64 {
+        *self.clone().value_mut(k)
+    }
+
     pub fn is_rigid(&self) -> bool {
         matches!(self, Law::Restitution(_))
     }

@@ -8,21 +8,43 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{Contact, PhaseTerm, Switch, Watch};
+use serde::{Deserialize, Serialize};
+
+use super::{Contact, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use crate::units::Unit;
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::Jet;
 
 /// The rigid stop of seed 000: impacts by the restitution rule, chatter
 /// ended by the threshold `eps` (section 2.2), then sticking.
-#[derive(Clone, Debug, PartialEq)]
+/// Scene schema: `{"type": "restitution", "R": ..., "eps": ...}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Restitution {
+    #[serde(rename = "R")]
     pub restitution: f64,
     /// An impact sooner than this after the previous one of a chatter
     /// sequence ends the chatter with `R = 0`.
+    #[serde(rename = "eps")]
     pub chatter_eps: f64,
 }
 
 impl Restitution {
+    pub const PARAMETERS: &'static [ParamSpec] = &[
+        ParamSpec { key: "R", description: "Coefficient of restitution at stop '{stop}'", unit: Unit::One, range: RangeKind::Unit, tunable: true },
+        ParamSpec {
+            key: "eps",
+            description: "Chatter threshold at stop '{stop}': an impact sooner than eps after the previous one ends the chatter with R = 0 and starts sticking",
+            unit: Unit::Second,
+            range: RangeKind::Duration,
+            tunable: true,
+        },
+    ];
+
+    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
+        [&mut self.restitution, &mut self.chatter_eps].into_iter().nth(k).expect("a restitution parameter")
+    }
+
     pub fn term(&self, contact: Contact) -> PhaseTerm {
         match contact {
             Contact::Held => PhaseTerm::Constraint,

@@ -11,18 +11,93 @@
 //! - penetrated, the force turns positive: pressed again; or the point
 //!   leaves the surface: apart.
 
-use super::{closing, Contact, Geometry, PhaseTerm, Switch, Watch};
-use crate::solve::{Functional, Jet, ModalState};
+use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Debug, PartialEq)]
+use super::{closing, Contact, Geometry, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use crate::solve::{Functional, Jet, ModalState};
+use crate::units::Unit;
+
+/// Scene schema: `{"type": "spring_dashpot", "k": ..., "c": ..., "method":
+/// "fim" | "mtm" | "rmtm", "transfer_damping": "modal" | "inherited"}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SpringDashpot {
     /// Stiffness (N/m in SI scenes).
     pub k: f64,
     /// Damping (N s/m).
     pub c: f64,
+    /// How contact phases are represented (seed 001's three methods).
+    #[serde(default, skip_serializing_if = "ContactMethod::is_fim")]
+    pub method: ContactMethod,
+    /// With mode transfer: how the contact modes are damped.
+    #[serde(default, skip_serializing_if = "TransferDamping::is_modal")]
+    pub transfer_damping: TransferDamping,
+}
+
+/// Seed 001's three ways of solving a contact phase of a tip spring stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactMethod {
+    /// Force integration: the stop's force on the structure's own modes
+    /// (`K + k w w^T`), exact for that Galerkin model.
+    #[default]
+    Fim,
+    /// Mode transfer: while in contact, the modes of the cantilever with
+    /// the tip spring; both fields projected at every switch.
+    Mtm,
+    /// Relative mode transfer: the motion after each switch is an
+    /// increment, in the new modes, over the shape frozen at the switch.
+    Rmtm,
+}
+
+impl ContactMethod {
+    pub fn is_fim(&self) -> bool {
+        *self == ContactMethod::Fim
+    }
+}
+
+/// The damping of the contact modes under mode transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum TransferDamping {
+    /// The structure's modal damping ratio on every contact mode (seed 001:
+    /// "adding damping" in each basis).
+    #[default]
+    Modal,
+    /// The structure's own damping operator projected on the contact modes,
+    /// `T diag(2 zeta omega) T^T`: the damping force integration applies, so
+    /// the three methods then solve the same continuum.
+    Inherited,
+}
+
+impl TransferDamping {
+    pub fn is_modal(&self) -> bool {
+        *self == TransferDamping::Modal
+    }
 }
 
 impl SpringDashpot {
+    pub const PARAMETERS: &'static [ParamSpec] = &[
+        ParamSpec {
+            key: "k",
+            description: "Stiffness of the compliant stop '{stop}' (force k p + c p', p the penetration)",
+            unit: Unit::NewtonPerMetre,
+            range: RangeKind::Stiffness,
+            tunable: true,
+        },
+        ParamSpec {
+            key: "c",
+            description: "Damping of the compliant stop '{stop}' (the stop pushes, never pulls)",
+            unit: Unit::NewtonSecondPerMetre,
+            range: RangeKind::Damping,
+            tunable: true,
+        },
+    ];
+
+    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
+        [&mut self.k, &mut self.c].into_iter().nth(k).expect("a spring-dashpot parameter")
+    }
+
     pub fn term(&self, contact: Contact) -> PhaseTerm {
         match contact {
             Contact::Pressed => PhaseTerm::SpringDashpot { k: self.k, c: self.c },

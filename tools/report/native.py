@@ -1,14 +1,15 @@
 """beamstop itself: the native executable (`beamstop measure`) and the FMU
-driven through fmpy's FMU2Slave."""
+driven through fmpy's FMU2Slave. Event times come from the simulation's
+structured events (`beamstop measure` prints them as JSON), never from log
+text: the FMU runs the same code, and its outputs are checked against the
+native run's."""
 from __future__ import annotations
 
 import json
 import os
-import re
 import subprocess
 import tempfile
 import time
-from ctypes import byref
 
 import numpy as np
 
@@ -55,9 +56,6 @@ def native_final(scene: Scene, out) -> np.ndarray:
 
 # ---- the FMU through fmpy -------------------------------------------------------
 
-_EVENT_RE = re.compile(r"t = ([-+0-9.eE]+): (impact|sticking starts|release)")
-
-
 class FmuRunner:
     def __init__(self, scene: Scene):
         from fmpy import extract, read_model_description
@@ -73,29 +71,12 @@ class FmuRunner:
         self.out_state = [self.vr[f"q[{j}]"] for j in range(1, n + 1)] + [self.vr[f"qd[{j}]"] for j in range(1, n + 1)]
         self.start = [(self.vr[k], float(v)) for k, v in scene.set_values.items()]
 
-    def _instance(self, logging: bool):
-        from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2CallbackAllocateMemoryTYPE, \
-            fmi2CallbackFreeMemoryTYPE, calloc, free
+    def _instance(self):
+        from fmpy.fmi2 import FMU2Slave
 
         fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
                         modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="report")
-        self.messages = []
-        callbacks = None
-        if logging:
-            from fmpy.logging import addLoggerProxy
-
-            def logger(env, name, status, category, message):
-                self.messages.append(message.decode("utf-8", "replace"))
-
-            callbacks = fmi2CallbackFunctions()
-            callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-            callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-            callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-            addLoggerProxy(byref(callbacks))
-            self._keep = callbacks
-        fmu.instantiate(callbacks=callbacks, loggingOn=logging)
-        if logging:
-            fmu.setDebugLogging(True, ["logEvents"])
+        fmu.instantiate()
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         if self.start:
@@ -105,7 +86,9 @@ class FmuRunner:
 
     def run(self, h: float, repeats: int = 5):
         """Median wall time of the doStep loop (reading w at the stop after
-        each step, as a master would), then one logged run for the events."""
+        each step, as a master would); the event times from the native run
+        of the same scene and step (`beamstop measure`, structured: the
+        trajectory does not depend on who drives the code)."""
         t_end = self.scene.t_end
         nsteps = max(1, int(round(t_end / h)))
         grid = np.array([min((k + 1) * h, t_end) for k in range(nsteps)])
@@ -113,7 +96,7 @@ class FmuRunner:
         walls = []
         ws = None
         for _ in range(repeats + 1):
-            fmu = self._instance(False)
+            fmu = self._instance()
             out_w = [self.out_w]
             ws_local = np.empty(nsteps)
             t = 0.0
@@ -129,19 +112,10 @@ class FmuRunner:
             fmu.freeInstance()
             ws = ws_local
         walls = sorted(walls[1:])  # the first is a warm-up
-        # untimed, logged run: the event times
-        fmu = self._instance(True)
-        t = 0.0
-        for k in range(nsteps):
-            fmu.doStep(currentCommunicationPoint=t, communicationStepSize=grid[k] - t)
-            t = grid[k]
-        fmu.terminate()
-        fmu.freeInstance()
-        ev = {"impact": [], "sticking starts": [], "release": []}
-        for m in self.messages:
-            mm = _EVENT_RE.search(m)
-            if mm:
-                ev[mm.group(2)].append(float(mm.group(1)))
+        native_run = measure(self.scene, step=h, repeats=1, dense_dt=0.0)
+        if "error" in native_run:
+            raise RuntimeError(native_run["error"])
+        ev = {"impact": native_run["impacts"], "sticking starts": native_run["sticks"], "release": native_run["releases"]}
         n = self.scene.n
         if self.scene.phi is not None:
             final = np.concatenate([self.scene.phi @ final[:n], self.scene.phi @ final[n:]])

@@ -1,0 +1,59 @@
+//! Physical units of parameters and outputs, as SI exponents.
+
+/// Physical units, as SI exponents (kg, m, s, rad).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Unit {
+    One,
+    Metre,
+    Second,
+    MetrePerSecond,
+    MetrePerSecond2,
+    Newton,
+    NewtonPerMetre,
+    NewtonMetre,
+    Joule,
+    RadianPerSecond,
+    NewtonSecondPerMetre,
+    NewtonSecond,
+    /// Viscous damping per unit length, N s / m^2.
+    NewtonSecondPerMetre2,
+}
+
+impl Unit {
+    pub fn name(self) -> &'static str {
+        match self {
+            Unit::One => "1",
+            Unit::Metre => "m",
+            Unit::Second => "s",
+            Unit::MetrePerSecond => "m/s",
+            Unit::MetrePerSecond2 => "m/s2",
+            Unit::Newton => "N",
+            Unit::NewtonPerMetre => "N/m",
+            Unit::NewtonMetre => "N.m",
+            Unit::Joule => "J",
+            Unit::RadianPerSecond => "rad/s",
+            Unit::NewtonSecondPerMetre => "N.s/m",
+            Unit::NewtonSecond => "N.s",
+            Unit::NewtonSecondPerMetre2 => "N.s/m2",
+        }
+    }
+
+    /// Exponents of kg, m, s, rad.
+    pub fn si_exponents(self) -> [i32; 4] {
+        match self {
+            Unit::One => [0, 0, 0, 0],
+            Unit::Metre => [0, 1, 0, 0],
+            Unit::Second => [0, 0, 1, 0],
+            Unit::MetrePerSecond => [0, 1, -1, 0],
+            Unit::MetrePerSecond2 => [0, 1, -2, 0],
+            Unit::Newton => [1, 1, -2, 0],
+            Unit::NewtonPerMetre => [1, 0, -2, 0],
+            Unit::NewtonMetre | Unit::Joule => [1, 2, -2, 0],
+            Unit::RadianPerSecond => [0, 0, -1, 1],
+            Unit::NewtonSecondPerMetre => [1, 0, -1, 0],
+            Unit::NewtonSecond => [1, 1, -1, 0],
+            Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
+        }
+    }
+}
+
