@@ -235,6 +235,41 @@ impl Law {
         }
     }
 
+    /// The contact states this law has.
+    pub fn states(&self) -> &'static [Contact] {
+        match self {
+            Law::Restitution(_) => &[Contact::Open, Contact::Held],
+            Law::SpringDashpot(_) => &[Contact::Open, Contact::Pressed, Contact::Penetrated],
+        }
+    }
+
+    /// The force as a functional of the state, for laws whose force is
+    /// linear in it while they push (`None` for a rigid stop: its force is
+    /// a constraint reaction).
+    pub fn force_functional(&self, geometry: &Geometry) -> Option<Functional> {
+        match self {
+            Law::SpringDashpot(l) => Some(l.force_functional(geometry)),
+            Law::Restitution(_) => None,
+        }
+    }
+
+    /// A dashpot's coefficient, when the stop dissipates while pushing.
+    pub fn dashpot(&self) -> Option<f64> {
+        match self {
+            Law::SpringDashpot(l) if l.c > 0.0 => Some(l.c),
+            _ => None,
+        }
+    }
+
+    /// Energy left in the stop when it lets go at penetration `p` (a
+    /// spring released inside the surface keeps `k p^2 / 2`).
+    pub fn energy_left_at_release(&self, p: f64) -> f64 {
+        match self {
+            Law::SpringDashpot(l) => 0.5 * l.k * p * p,
+            Law::Restitution(_) => 0.0,
+        }
+    }
+
     /// Elastic energy stored in the stop.
     pub fn stored_energy(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState) -> f64 {
         match (self, contact) {

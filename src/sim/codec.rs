@@ -14,7 +14,7 @@ use crate::solve::functional::NOISE;
 use crate::solve::ModalState;
 
 use super::{EnergyBalance, Frozen, SimState, Simulation, StopState};
-use crate::contact::{Contact, Law};
+use crate::contact::Contact;
 
 /// Version of the encoding below; bump on any change.
 /// 2: per-stop contact states (compliant stops), impulses, dissipation.
@@ -183,11 +183,7 @@ fn finite_modal(field: &str, m: &ModalState) -> Result<(), String> {
 /// watched functions.
 fn check_contacts(st: &SimState, model: &Model) -> Result<(), String> {
     for (s, m) in st.stops.iter().zip(&model.stops) {
-        let allowed = match m.law {
-            Law::Restitution(_) => matches!(s.contact, Contact::Open | Contact::Held),
-            Law::SpringDashpot(_) => matches!(s.contact, Contact::Open | Contact::Pressed | Contact::Penetrated),
-        };
-        if !allowed {
+        if !m.law.states().contains(&s.contact) {
             return Err(format!("simulation state: stop '{}' is {:?}, a state its law does not have", m.name, s.contact));
         }
         if s.departing[1] && m.law.watches(s.contact).len() < 2 {
@@ -273,10 +269,12 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
         let level = (NOISE * size).max(tol);
         let name = &stop.name;
         let contact = st.stops[i].contact;
-        if let Law::SpringDashpot(l) = &stop.law {
+        if let Some(h) = stop.law.force_functional(geo) {
             let p = -jet.d[0];
-            let force = l.k * p + l.c * geo.penetration_rate(&st.current.qd);
-            let force_level = l.k * level + l.c * NOISE * vsize;
+            let force = h.value(&st.current, &nalgebra::DVector::zeros(model.n_modes()));
+            let force_level = NOISE * (h.offset.abs() + h.q.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>())
+                + h.q.amax() * level
+                + h.qd.as_ref().map_or(0.0, |b| NOISE * b.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>());
             let bad = match contact {
                 Contact::Open => p > level,
                 Contact::Pressed => force < -force_level,

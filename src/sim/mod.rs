@@ -527,10 +527,8 @@ impl Simulation {
         }
         self.state.accounted = t;
         let dashpots: Vec<(usize, f64)> = (0..self.model.stops.len())
-            .filter_map(|i| match (&self.model.stops[i].law, self.state.stops[i].contact) {
-                (Law::SpringDashpot(l), Contact::Pressed) if l.c > 0.0 => Some((i, l.c)),
-                _ => None,
-            })
+            .filter(|&i| self.state.stops[i].contact == Contact::Pressed)
+            .filter_map(|i| self.model.stops[i].law.dashpot().map(|c| (i, c)))
             .collect();
         let Segment::Coupled { system, .. } = &self.segment else { return };
         if dashpots.is_empty() {
@@ -565,9 +563,11 @@ impl Simulation {
         if span <= 0.0 {
             return 0.0;
         }
-        let pressed_spring = |iq: &DVector<f64>| match &stop.law {
-            Law::SpringDashpot(l) => l.k * (g.side * g.w.dot(iq) - g.gap * span) + l.c * g.side * g.w.dot(&(&at_t.q - &self.state.anchor.q)),
-            Law::Restitution(_) => 0.0,
+        // The force is a functional `offset + a . q + b . qd`: its integral
+        // is `offset span + a . int q + b . [q]`.
+        let pressed_spring = |iq: &DVector<f64>| match stop.law.force_functional(g) {
+            Some(h) => h.offset * span + h.q.dot(iq) + h.qd.as_ref().map_or(0.0, |b| b.dot(&(&at_t.q - &self.state.anchor.q))),
+            None => 0.0,
         };
         match &self.segment {
             // Free oscillators (mode transfer in contact): `omega^2 int q =
@@ -874,10 +874,7 @@ impl Simulation {
     /// the coupled system knows.
     fn watched_functional(&self, i: usize, watch: Watch) -> Option<Functional> {
         let stop = &self.model.stops[i];
-        let force = || match &stop.law {
-            Law::SpringDashpot(l) => l.force_functional(&self.geometries[i]),
-            Law::Restitution(_) => unreachable!("a rigid stop has no force law"),
-        };
+        let force = || stop.law.force_functional(&self.geometries[i]).expect("a force is watched only for laws that have one");
         Some(match watch {
             Watch::Gap => self.gap_functionals[i].clone(),
             Watch::Penetration => self.gap_functionals[i].clone().scaled(-1.0),
@@ -1240,10 +1237,8 @@ impl Simulation {
                 }
                 Contact::Open | Contact::Penetrated if was[i] == Contact::Pressed => {
                     let penetration = self.geometries[i].penetration(&st.q).max(0.0);
-                    if let Law::SpringDashpot(l) = &m.law {
-                        // The spring's energy left in the stop is its own.
-                        counters.dissipated += 0.5 * l.k * penetration * penetration;
-                    }
+                    // The spring's energy left in the stop is its own.
+                    counters.dissipated += m.law.energy_left_at_release(penetration);
                     self.record(t, EventKind::Separation { stop: i, penetration });
                 }
                 _ => {}
