@@ -5,7 +5,7 @@
 //! Only what the scene uses appears. The FMI layer turns this list into
 //! scalar variables; nothing here knows about FMI.
 
-use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, StopLaw, Units};
+use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, SceneError, StopLaw, Units};
 
 pub use crate::units::Unit;
 
@@ -613,46 +613,28 @@ pub fn variable_names(scene: &Scene) -> Vec<String> {
     v
 }
 
-/// The value of an output.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Value {
-    Real(f64),
-    Integer(i64),
-    Boolean(bool),
-}
+impl Scene {
+    /// Parses and validates a scene; errors name the field and what is allowed.
+    pub fn from_json(text: &str) -> Result<Scene, SceneError> {
+        let scene = Scene::parse(text)?;
+        scene.validate()?;
+        Ok(scene)
+    }
 
-impl OutputKey {
-    /// Reads the output from a simulation at its current time.
-    pub fn evaluate(&self, sim: &crate::sim::Simulation) -> Value {
-        let model = sim.model();
-        let scale = model.coordinate_scale;
-        let modal = || sim.field();
-        match *self {
-            OutputKey::StopDisplacement(i) => Value::Real(sim.stop_motion(i).0),
-            OutputKey::StopVelocity(i) => Value::Real(sim.stop_motion(i).1),
-            OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
-            OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
-            OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
-            OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
-            OutputKey::StopForce(i) => Value::Real(sim.stop_force(i)),
-            OutputKey::StopPenetration(i) => {
-                let g = &model.stops[i].geometry;
-                Value::Real(g.side * sim.stop_motion(i).0 - g.gap)
-            }
-            OutputKey::StopContact(i) => Value::Boolean(sim.contact(i) == crate::contact::Contact::Pressed),
-            OutputKey::StopImpulse(i) => Value::Real(sim.last_impulse(i)),
-            OutputKey::StopStoredEnergy(i) => Value::Real(sim.stop_stored_energy(i)),
-            OutputKey::StopDissipatedEnergy(i) => Value::Real(sim.stop_dissipated_energy(i)),
-            OutputKey::SensorDisplacement(i) => Value::Real(sim.sensor_motion(i).0),
-            OutputKey::SensorVelocity(i) => Value::Real(sim.sensor_motion(i).1),
-            OutputKey::SensorMoment(i) => Value::Real(sim.sensor_motion(i).2),
-            OutputKey::Q(j) => Value::Real(modal().q[j] / scale),
-            OutputKey::Qd(j) => Value::Real(modal().qd[j] / scale),
-            OutputKey::Energy => Value::Real(sim.energy()),
-            OutputKey::ForcingEnergy(j) => Value::Real(sim.energy_balance().map_or(0.0, |b| b.forcing[j])),
-            OutputKey::DampingEnergy(j) => Value::Real(sim.energy_balance().map_or(0.0, |b| b.damping[j])),
-            OutputKey::ImpactEnergy => Value::Real(sim.energy_balance().map_or(0.0, |b| b.impacts)),
+    /// Everything that cannot change after packaging: the structure
+    /// ([`Scene::validate_structure`]), every value within the range of the
+    /// parameter that carries it, and distinct variable names.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        self.validate_structure()?;
+        for p in parameters(self) {
+            p.range.check(&format!("{} ({})", p.scene_path, p.name), p.key.get(self)).map_err(SceneError)?;
         }
+        let mut names = std::collections::BTreeSet::new();
+        for v in variable_names(self) {
+            if !names.insert(v.clone()) {
+                return Err(SceneError(format!("two variables would be named {v:?}: rename one with \"names\"")));
+            }
+        }
+        Ok(())
     }
 }
-

@@ -10,6 +10,7 @@ pub mod fmi2;
 pub mod interface;
 pub mod model;
 pub mod package;
+pub mod readout;
 pub mod scene;
 pub mod sim;
 pub mod solve;

@@ -445,11 +445,10 @@ pub struct Section {
 }
 
 impl Scene {
-    /// Parses and validates a scene; errors name the field and what is allowed.
-    pub fn from_json(text: &str) -> Result<Scene, SceneError> {
-        let scene: Scene = serde_json::from_str(text).map_err(|e| SceneError(format!("scene: {e}")))?;
-        scene.validate()?;
-        Ok(scene)
+    /// Parses a scene without validating it (see `Scene::from_json`,
+    /// which validates against the interface the scene defines).
+    pub fn parse(text: &str) -> Result<Scene, SceneError> {
+        serde_json::from_str(text).map_err(|e| SceneError(format!("scene: {e}")))
     }
 
     /// The canonical serialisation: the GUID and the packaged copy derive from it.
@@ -521,8 +520,9 @@ impl Scene {
         }
     }
 
-    /// Structural validation: everything that cannot change after packaging.
-    pub fn validate(&self) -> Result<(), SceneError> {
+    /// Structural validation: the parts of a scene that fit together (the
+    /// values' ranges are checked by `Scene::validate`, in `crate::interface`).
+    pub fn validate_structure(&self) -> Result<(), SceneError> {
         if self.name.is_empty()
             || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
             || self.name.starts_with(|c: char| c.is_ascii_digit())
@@ -634,16 +634,6 @@ impl Scene {
                         return err(format!("actuators[{i}]: a base_acceleration input acts everywhere: remove x / mass"));
                     }
                 }
-            }
-        }
-        // Every value must lie in the range of the parameter that carries it.
-        for p in crate::interface::parameters(self) {
-            p.range.check(&format!("{} ({})", p.scene_path, p.name), p.key.get(self)).map_err(SceneError)?;
-        }
-        let mut names = std::collections::BTreeSet::new();
-        for v in crate::interface::variable_names(self) {
-            if !names.insert(v.clone()) {
-                return err(format!("two variables would be named {v:?}: rename one with \"names\""));
             }
         }
         let e = &self.experiment;

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use crate::interface::Value;
+use crate::readout::{self, Value};
 use crate::model::Model;
 use crate::scene::Scene;
 use crate::sim::{SimError, Simulation};
@@ -262,7 +262,7 @@ impl Instance {
             Binding::Input(i) => Value::Real(self.inputs[i]),
             Binding::Output(i) => {
                 let key = self.table.outputs[i].key;
-                key.evaluate(self.reading_simulation(f)?)
+                readout::evaluate(key, self.reading_simulation(f)?)
             }
         })
     }

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use beamstop::fmi2::description::model_description;
-use beamstop::interface::{self, Value};
+use beamstop::interface;
+use beamstop::readout::{self, Value};
 use beamstop::package::write_fmu;
 use beamstop::{EventKind, Model, Scene, Simulation};
 
@@ -129,7 +130,7 @@ fn run(args: &[String]) -> Result<(), String> {
         sim.advance_to(t).map_err(|e| e.to_string())?;
         csv.push_str(&format!("{t}"));
         for o in &outputs {
-            let v = match o.key.evaluate(&sim) {
+            let v = match readout::evaluate(o.key, &sim) {
                 Value::Real(x) => format!("{x}"),
                 Value::Integer(i) => format!("{i}"),
                 Value::Boolean(b) => format!("{}", b as u8),

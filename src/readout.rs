@@ -1,0 +1,52 @@
+//! The outputs' values: a scene's outputs (`crate::interface`) read from a
+//! simulation.
+
+use crate::interface::OutputKey;
+use crate::sim::Simulation;
+
+/// The value of an output.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    Real(f64),
+    Integer(i64),
+    Boolean(bool),
+}
+
+/// Reads an output from a simulation at its current time.
+pub fn evaluate(key: OutputKey, sim: &Simulation) -> Value {
+    let model = sim.model();
+    let scale = model.coordinate_scale;
+    let modal = || sim.field();
+    match key {
+        OutputKey::StopDisplacement(i) => Value::Real(sim.stop_motion(i).0),
+        OutputKey::StopVelocity(i) => Value::Real(sim.stop_motion(i).1),
+        OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
+        OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
+        OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
+        OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
+        OutputKey::StopForce(i) => Value::Real(sim.stop_force(i)),
+        OutputKey::StopPenetration(i) => {
+            let g = &model.stops[i].geometry;
+            Value::Real(g.side * sim.stop_motion(i).0 - g.gap)
+        }
+        OutputKey::StopContact(i) => {
+            Value::Boolean(sim.contact(i) == crate::contact::Contact::Pressed)
+        }
+        OutputKey::StopImpulse(i) => Value::Real(sim.last_impulse(i)),
+        OutputKey::StopStoredEnergy(i) => Value::Real(sim.stop_stored_energy(i)),
+        OutputKey::StopDissipatedEnergy(i) => Value::Real(sim.stop_dissipated_energy(i)),
+        OutputKey::SensorDisplacement(i) => Value::Real(sim.sensor_motion(i).0),
+        OutputKey::SensorVelocity(i) => Value::Real(sim.sensor_motion(i).1),
+        OutputKey::SensorMoment(i) => Value::Real(sim.sensor_motion(i).2),
+        OutputKey::Q(j) => Value::Real(modal().q[j] / scale),
+        OutputKey::Qd(j) => Value::Real(modal().qd[j] / scale),
+        OutputKey::Energy => Value::Real(sim.energy()),
+        OutputKey::ForcingEnergy(j) => {
+            Value::Real(sim.energy_balance().map_or(0.0, |b| b.forcing[j]))
+        }
+        OutputKey::DampingEnergy(j) => {
+            Value::Real(sim.energy_balance().map_or(0.0, |b| b.damping[j]))
+        }
+        OutputKey::ImpactEnergy => Value::Real(sim.energy_balance().map_or(0.0, |b| b.impacts)),
+    }
+}
