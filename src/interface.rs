@@ -409,6 +409,9 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
     }
     for (i, stop) in scene.stops.iter().enumerate() {
         let (n, s) = (&stop.names, &stop.name);
+        // Under mode transfer the contact basis is built from the stop's
+        // parameters: they are fixed for the run.
+        let transfer = matches!(&stop.law, StopLaw::SpringDashpot(l) if !l.method.is_fim());
         for (k, spec) in stop.law.parameters().iter().enumerate() {
             push(
                 ParamKey::Law(i, k),
@@ -417,7 +420,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
                 spec.description.replace("{stop}", s),
                 spec.unit,
                 limits.law_range(spec.range),
-                spec.tunable,
+                spec.tunable && !transfer,
             );
         }
         push(

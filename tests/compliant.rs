@@ -258,3 +258,25 @@ fn a_stiff_stop_with_matched_damping_approaches_the_rigid_restitution_rule() {
     }
     assert!(last_error < 1e-3, "rebound ratio off the single-contact R = {r} by {last_error}");
 }
+
+#[test]
+fn an_initial_penetration_is_a_legal_start() {
+    // Started 0.05 inside the surface at rest, no load: the stop pushes
+    // with k p from the first instant and the structure rebounds; a rigid
+    // stop refuses the same start.
+    let mut s = scene(2e3, 0.0, 0.0, 0.0, 0.2);
+    let model = Model::build(&s).unwrap();
+    let w = model.stops[0].geometry.w.clone();
+    // q along w: w . q = gap + 0.05.
+    let q: Vec<f64> = w.iter().map(|wj| wj * (0.25 / w.dot(&w))).collect();
+    s.initial.q = q.clone();
+    let mut sim = Simulation::new(Model::build(&s).unwrap(), 0.0).unwrap();
+    assert_eq!(sim.contact(0), Contact::Pressed);
+    assert!((sim.stop_force(0) - 2e3 * 0.05).abs() < 1e-9, "{}", sim.stop_force(0));
+    sim.advance_to(1.0).unwrap();
+    let separations = sim.drain_events().into_iter().filter(|e| matches!(e.kind, EventKind::Separation { .. })).count();
+    assert!(separations >= 1);
+    let mut rigid = s.clone();
+    rigid.stops[0].law = beamstop::scene::StopLaw::Restitution(beamstop::contact::Restitution { restitution: 0.5, chatter_eps: 1e-6 });
+    assert!(Simulation::new(Model::build(&rigid).unwrap(), 0.0).is_err());
+}
