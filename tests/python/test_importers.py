@@ -22,7 +22,9 @@ can have, so run() sets it for every importer's process.
   communication point moves the state by |dy/dt| 1e-16 t, and the motion
   between impacts carries and amplifies that: measured at most 1.8e-9
   (qd[4] of WaggBishopCantilever4 near t = 196 s; 7.2e-10 for tip.v of
-  SteelCantileverStop within 2 s). A relative tolerance like 1e-12 cannot
+  SteelCantileverStop within 2 s); an output read at the shifted time also
+  differs by its rate times the shift (a sticking reaction: 1.6e-8 N from
+  2.6e5 N/s times 6.4e-14 s), which the tolerance adds. A relative tolerance like 1e-12 cannot
   work here: outputs that pass through zero (a stop's displacement) differ
   by more than 100 % relative near 1e-19.
 
@@ -157,10 +159,18 @@ def test_libcosim_grid_agrees_with_fmpy_grid(fmu):
     # An output that sits at zero for a while (a stop's reaction) is compared
     # on the scale of the whole motion.
     motion = max(scale.values())
+    # The grids' points differ by up to ~1e-13 s, and an output read at a
+    # shifted time differs by its rate times the shift: a sticking reaction
+    # carries the stiffest modes and changes at up to ~1e5 N/s (measured
+    # 2.6e5 N/s on SteelCantileverStop), faster than the grid resolves. The
+    # rate is bounded by 1000 times the largest change per step seen on the grid.
+    rate = {name: 1e3 * max(abs(ref[k + 1][name] - ref[k][name]) / (t_sum[k + 1] - t_sum[k]) for k in range(len(ref) - 1))
+            for name in scale}
     for k, (a, b) in enumerate(zip(ref, osp)):
+        shift = abs(t_sum[k] - t_ns[k])
         for name, t in types.items():
             if t != "Real" or name.endswith("t_last_impact"):
                 assert a[name] == b[name], f"step {k + 1}: {name}: {a[name]!r} vs {b[name]!r}"
             else:
-                tol = 1e-8 * max(scale[name], 1e-6 * motion)
-                assert abs(a[name] - b[name]) <= tol, f"step {k + 1}: {name}: {a[name]!r} vs {b[name]!r}"
+                tol = 1e-8 * max(scale[name], 1e-6 * motion) + shift * rate[name]
+                assert abs(a[name] - b[name]) <= tol, f"step {k + 1}: {name}: {a[name]!r} vs {b[name]!r} (grid shift {shift:.1e} s)"
