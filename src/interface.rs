@@ -306,7 +306,16 @@ impl Limits {
             crate::contact::RangeKind::Duration => self.duration_range(),
             crate::contact::RangeKind::Stiffness => self.stop_stiffness_range(),
             crate::contact::RangeKind::Damping => self.stop_damping_range(),
+            crate::contact::RangeKind::HertzStiffness => self.hertz_stiffness_range(),
         }
+    }
+
+    /// Hertz stiffness: a force `K p^1.5` no stiffer than the hardest linear
+    /// stop at a penetration of 1e-9 of the displacement scale (`K = k /
+    /// sqrt(p)` there).
+    pub fn hertz_stiffness_range(&self) -> Range {
+        let p = 1e-9 * self.displacement / MAX_DISPLACEMENT_RATIO;
+        Range::closed(0.0, self.stop_stiffness_range().max / p.sqrt())
     }
 
     /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness
@@ -519,8 +528,9 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
                     false,
                 );
             }
-            StopLaw::SpringDashpot(_) => {
-                push(OutputKey::StopForce(i), named(n, s, "force"), format!("Force of stop '{s}', max(0, k p + c p') while in contact (>= 0, pushing the structure away)"), Unit::Newton, real, false);
+            StopLaw::SpringDashpot(_) | StopLaw::Hertz(_) => {
+                let law = if matches!(stop.law, StopLaw::Hertz(_)) { "K p^1.5 + damping" } else { "k p + c p'" };
+                push(OutputKey::StopForce(i), named(n, s, "force"), format!("Force of stop '{s}', max(0, {law}) while in contact (>= 0, pushing the structure away)"), Unit::Newton, real, false);
                 push(OutputKey::StopPenetration(i), named(n, s, "penetration"), format!("Penetration p of stop '{s}' (negative: the clearance left)"), Unit::Metre, real, false);
                 push(OutputKey::StopContact(i), named(n, s, "contact"), format!("Whether stop '{s}' pushes (in contact)"), Unit::One, OutputType::Boolean, true);
                 push(OutputKey::StopImpacts(i), named(n, s, "contacts"), format!("Number of contact onsets at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
@@ -532,7 +542,7 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
                     real,
                     true,
                 );
-                push(OutputKey::StopStoredEnergy(i), named(n, s, "E_stored"), format!("Elastic energy stored in stop '{s}', k p^2 / 2 in contact"), Unit::Joule, real, false);
+                push(OutputKey::StopStoredEnergy(i), named(n, s, "E_stored"), format!("Elastic energy stored in stop '{s}' in contact ({})", if matches!(stop.law, StopLaw::Hertz(_)) { "2/5 K p^2.5" } else { "k p^2 / 2" }), Unit::Joule, real, false);
                 push(
                     OutputKey::StopDissipatedEnergy(i),
                     named(n, s, "E_dissipated"),

@@ -43,6 +43,8 @@ pub struct Model {
     pub inputs: Vec<DVector<f64>>,
     pub initial: ModalState,
     pub event_tolerance: f64,
+    /// Relative tolerance of integrated (nonlinear) phases.
+    pub integration_tolerance: f64,
     pub max_events_per_step: u64,
     /// Event-search points allowed within one call to advance (events included).
     pub max_probes_per_step: u64,
@@ -263,6 +265,7 @@ impl Model {
             inputs,
             initial,
             event_tolerance: scene.solver.event_tolerance,
+            integration_tolerance: scene.solver.integration_tolerance,
             max_events_per_step: scene.solver.max_events_per_step,
             max_probes_per_step: scene.solver.max_probes_per_step.unwrap_or_else(|| default_probe_budget(n)),
             energy_balance: scene.outputs.energy_balance,

@@ -319,15 +319,31 @@ pub struct Solver {
     /// default keeps one step under about a second at any number of modes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_probes_per_step: Option<u64>,
+    /// Relative local error the integration of nonlinear contact phases
+    /// (Hertz) aims at (closed-form phases are exact regardless).
+    #[serde(default = "default_integration_tolerance")]
+    pub integration_tolerance: f64,
 }
 
 fn default_max_events() -> u64 {
     1_000_000
 }
 
+fn default_integration_tolerance() -> f64 {
+    1e-10
+}
+
+/// The range of `solver.integration_tolerance`.
+pub const INTEGRATION_TOLERANCE_RANGE: Range = Range { min: 1e-14, max: 1e-2, min_open: false, max_open: false };
+
 impl Default for Solver {
     fn default() -> Self {
-        Solver { event_tolerance: 0.0, max_events_per_step: default_max_events(), max_probes_per_step: None }
+        Solver {
+            event_tolerance: 0.0,
+            max_events_per_step: default_max_events(),
+            max_probes_per_step: None,
+            integration_tolerance: default_integration_tolerance(),
+        }
     }
 }
 
@@ -615,6 +631,19 @@ impl Scene {
                 }
             }
         }
+        if let Some(i) = self.stops.iter().position(|s| s.law.is_nonlinear()) {
+            // A Hertz contact phase is integrated on the structure's own
+            // modes, beside free or impacting other stops.
+            if let Some(k) = self.stops.iter().position(|s| !s.law.is_nonlinear()) {
+                return err(format!(
+                    "stops[{k}].law: a {} stop cannot share a scene with the hertz stop stops[{i}] (its contact phases are integrated, without constraints or linear springs); use a hertz law for every stop",
+                    match self.stops[k].law { StopLaw::Restitution(_) => "restitution", _ => "spring_dashpot" }
+                ));
+            }
+            if self.outputs.energy_balance {
+                return err(format!("outputs.energy_balance: not available with the hertz stop stops[{i}]; its own energy outputs give the balance"));
+            }
+        }
         for (i, s) in self.sensors.iter().enumerate() {
             unique(format!("sensors[{i}].name"), &s.name)?;
             self.check_location(&format!("sensors[{i}]"), &s.at())?;
@@ -643,6 +672,7 @@ impl Scene {
         }
         Range::POSITIVE.check("experiment.step", e.step).map_err(SceneError)?;
         Range::NON_NEGATIVE.check("solver.event_tolerance", self.solver.event_tolerance).map_err(SceneError)?;
+        INTEGRATION_TOLERANCE_RANGE.check("solver.integration_tolerance", self.solver.integration_tolerance).map_err(SceneError)?;
         if self.solver.max_events_per_step == 0 {
             return err("solver.max_events_per_step = 0: allowed range is [1, 2^64)".into());
         }

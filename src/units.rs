@@ -10,6 +10,8 @@ pub enum Unit {
     MetrePerSecond2,
     Newton,
     NewtonPerMetre,
+    /// Hertz stiffness, N / m^1.5 (no integer SI exponents).
+    NewtonPerMetre1_5,
     NewtonMetre,
     Joule,
     RadianPerSecond,
@@ -29,6 +31,7 @@ impl Unit {
             Unit::MetrePerSecond2 => "m/s2",
             Unit::Newton => "N",
             Unit::NewtonPerMetre => "N/m",
+            Unit::NewtonPerMetre1_5 => "N/m1.5",
             Unit::NewtonMetre => "N.m",
             Unit::Joule => "J",
             Unit::RadianPerSecond => "rad/s",
@@ -38,9 +41,10 @@ impl Unit {
         }
     }
 
-    /// Exponents of kg, m, s, rad.
-    pub fn si_exponents(self) -> [i32; 4] {
-        match self {
+    /// Exponents of kg, m, s, rad (`None`: not integer, as N/m^1.5).
+    pub fn si_exponents(self) -> Option<[i32; 4]> {
+        Some(match self {
+            Unit::NewtonPerMetre1_5 => return None,
             Unit::One => [0, 0, 0, 0],
             Unit::Metre => [0, 1, 0, 0],
             Unit::Second => [0, 0, 1, 0],
@@ -53,7 +57,7 @@ impl Unit {
             Unit::NewtonSecondPerMetre => [1, 0, -1, 0],
             Unit::NewtonSecond => [1, 1, -1, 0],
             Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
-        }
+        })
     }
 }
 

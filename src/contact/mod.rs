@@ -13,12 +13,14 @@
 //! and these three answers, and a variant in [`Law`] with its arms (the one
 //! registration).
 
+pub mod hertz;
 pub mod restitution;
 pub mod spring_dashpot;
 
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
+pub use hertz::{Hertz, HertzDamping};
 pub use restitution::{apply_impact, ImpactRow, Restitution};
 pub use spring_dashpot::SpringDashpot;
 
@@ -101,6 +103,8 @@ pub enum PhaseTerm {
     Constraint,
     /// `-side w (k p + c p')`: `K += k w w^T`, `D += c w w^T`, `f += k target w`.
     SpringDashpot { k: f64, c: f64 },
+    /// A force nonlinear in the state (Hertz): the phase is integrated.
+    Nonlinear,
 }
 
 /// An event function of a contact state; each is non-negative while the
@@ -143,6 +147,7 @@ pub enum Switch {
 pub enum Law {
     Restitution(Restitution),
     SpringDashpot(SpringDashpot),
+    Hertz(Hertz),
 }
 
 /// Which of the structure's limits bounds a law parameter.
@@ -156,6 +161,8 @@ pub enum RangeKind {
     Stiffness,
     /// Stop damping coefficients.
     Damping,
+    /// Hertz stiffnesses `K` of `K p^1.5`.
+    HertzStiffness,
 }
 
 /// One real parameter of a law, as the law describes it.
@@ -176,6 +183,7 @@ impl Law {
         match self {
             Law::Restitution(_) => Restitution::PARAMETERS,
             Law::SpringDashpot(_) => SpringDashpot::PARAMETERS,
+            Law::Hertz(l) => l.parameters(),
         }
     }
 
@@ -184,6 +192,7 @@ impl Law {
         match self {
             Law::Restitution(l) => l.value_mut(k),
             Law::SpringDashpot(l) => l.value_mut(k),
+            Law::Hertz(l) => l.value_mut(k),
         }
     }
 
@@ -195,10 +204,16 @@ impl Law {
         matches!(self, Law::Restitution(_))
     }
 
+    /// Whether some contact state of the law makes the phase nonlinear.
+    pub fn is_nonlinear(&self) -> bool {
+        matches!(self, Law::Hertz(_))
+    }
+
     pub fn term(&self, contact: Contact) -> PhaseTerm {
         match self {
             Law::Restitution(l) => l.term(contact),
             Law::SpringDashpot(l) => l.term(contact),
+            Law::Hertz(l) => l.term(contact),
         }
     }
 
@@ -206,6 +221,7 @@ impl Law {
         match self {
             Law::Restitution(l) => l.watches(contact),
             Law::SpringDashpot(l) => l.watches(contact),
+            Law::Hertz(l) => l.watches(contact),
         }
     }
 
@@ -214,6 +230,7 @@ impl Law {
         match self {
             Law::Restitution(l) => l.on_zero(contact, watch, jet),
             Law::SpringDashpot(l) => l.on_zero(contact, watch, jet, geometry, state),
+            Law::Hertz(l) => l.on_zero(contact, watch, jet, geometry.penetration(&state.q)),
         }
     }
 
@@ -223,14 +240,17 @@ impl Law {
         match self {
             Law::Restitution(_) => Some(Contact::Open),
             Law::SpringDashpot(l) => Some(l.initial_contact(geometry, state)),
+            Law::Hertz(l) => Some(l.initial_contact(geometry.penetration(&state.q), geometry.penetration_rate(&state.qd))),
         }
     }
 
     /// The force the stop pushes with (>= 0), for a state outside a
-    /// constraint (a held stop's force is its reaction).
-    pub fn force(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState) -> f64 {
+    /// constraint (a held stop's force is its reaction); `onset_speed`: the
+    /// approach speed at the latest contact onset.
+    pub fn force(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState, onset_speed: f64) -> f64 {
         match (self, contact) {
             (Law::SpringDashpot(l), Contact::Pressed) => l.force(geometry, state),
+            (Law::Hertz(l), _) => l.force(contact, geometry.penetration(&state.q), geometry.penetration_rate(&state.qd), onset_speed),
             _ => 0.0,
         }
     }
@@ -239,7 +259,7 @@ impl Law {
     pub fn states(&self) -> &'static [Contact] {
         match self {
             Law::Restitution(_) => &[Contact::Open, Contact::Held],
-            Law::SpringDashpot(_) => &[Contact::Open, Contact::Pressed, Contact::Penetrated],
+            Law::SpringDashpot(_) | Law::Hertz(_) => &[Contact::Open, Contact::Pressed, Contact::Penetrated],
         }
     }
 
@@ -249,7 +269,7 @@ impl Law {
     pub fn force_functional(&self, geometry: &Geometry) -> Option<Functional> {
         match self {
             Law::SpringDashpot(l) => Some(l.force_functional(geometry)),
-            Law::Restitution(_) => None,
+            Law::Restitution(_) | Law::Hertz(_) => None,
         }
     }
 
@@ -266,6 +286,7 @@ impl Law {
     pub fn energy_left_at_release(&self, p: f64) -> f64 {
         match self {
             Law::SpringDashpot(l) => 0.5 * l.k * p * p,
+            Law::Hertz(l) => l.stored_energy(p),
             Law::Restitution(_) => 0.0,
         }
     }
@@ -274,6 +295,7 @@ impl Law {
     pub fn stored_energy(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState) -> f64 {
         match (self, contact) {
             (Law::SpringDashpot(l), Contact::Pressed) => 0.5 * l.k * geometry.penetration(&state.q).max(0.0).powi(2),
+            (Law::Hertz(l), Contact::Pressed) => l.stored_energy(geometry.penetration(&state.q)),
             _ => 0.0,
         }
     }

@@ -43,7 +43,11 @@ pub fn model_description(scene: &Scene) -> String {
     units.dedup();
     let _ = writeln!(x, "  <UnitDefinitions>");
     for u in &units {
-        let e = u.si_exponents();
+        let Some(e) = u.si_exponents() else {
+            // Fractional exponents (N/m^1.5) have no BaseUnit in FMI 2.0.
+            let _ = writeln!(x, r#"    <Unit name="{}"/>"#, escape(u.name()));
+            continue;
+        };
         let mut attrs = String::new();
         for (name, exp) in ["kg", "m", "s", "rad"].iter().zip(e) {
             if exp != 0 {

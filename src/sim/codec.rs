@@ -18,7 +18,8 @@ use crate::contact::Contact;
 
 /// Version of the encoding below; bump on any change.
 /// 2: per-stop contact states (compliant stops), impulses, dissipation.
-pub const STATE_VERSION: u32 = 2;
+/// 3: per-stop approach speed at the latest onset (Hertz damping).
+pub const STATE_VERSION: u32 = 3;
 
 impl Simulation {
     /// Appends the state (not the model or the inputs: the caller stores
@@ -42,6 +43,7 @@ impl Simulation {
             w.f64(stop.impulse);
             w.f64(stop.impulse_mark);
             w.f64(stop.dissipated);
+            w.f64(stop.onset_speed);
         }
         w.modal(&st.current);
         match &st.frozen {
@@ -101,6 +103,7 @@ impl Simulation {
                     impulse: r.f64()?,
                     impulse_mark: r.f64()?,
                     dissipated: r.f64()?,
+                    onset_speed: r.f64()?,
                 })
             })
             .collect::<Result<Vec<_>, String>>()?;
@@ -220,6 +223,10 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
         finite(&format!("stops[{i}].impulse"), s.impulse)?;
         finite(&format!("stops[{i}].impulse mark"), s.impulse_mark)?;
         finite(&format!("stops[{i}].dissipated"), s.dissipated)?;
+        finite(&format!("stops[{i}].onset speed"), s.onset_speed)?;
+        if s.onset_speed < 0.0 {
+            return Err(format!("simulation state: stops[{i}].onset speed = {}: must be >= 0", s.onset_speed));
+        }
         for (what, v) in [("impulse", s.impulse), ("impulse mark", s.impulse_mark), ("dissipated", s.dissipated)] {
             if v < 0.0 {
                 return Err(format!("simulation state: stops[{i}].{what} = {v}: must be >= 0 (stops push, never pull)"));
@@ -285,6 +292,19 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
                 return Err(format!(
                     "simulation state: stop '{name}' is {contact:?} with penetration {p:e} and force {force:e} (rounding level {level:e})"
                 ));
+            }
+            continue;
+        }
+        if stop.law.is_nonlinear() {
+            // The contact state must agree with the penetration.
+            let p = -jet.d[0];
+            let bad = match contact {
+                Contact::Open => p > level,
+                Contact::Pressed | Contact::Penetrated => p < -level,
+                Contact::Held => true,
+            };
+            if bad {
+                return Err(format!("simulation state: stop '{name}' is {contact:?} with penetration {p:e} (rounding level {level:e})"));
             }
             continue;
         }

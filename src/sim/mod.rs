@@ -13,6 +13,8 @@ use std::sync::Arc;
 use nalgebra::DVector;
 
 mod codec;
+mod integrated;
+pub mod nonlinear;
 
 pub use codec::STATE_VERSION;
 
@@ -98,6 +100,8 @@ pub enum SimError {
     Contact(LtiError),
     /// A requested time lies before the current one.
     Backwards { now: f64, requested: f64 },
+    /// The integration of a nonlinear contact phase failed.
+    Integration { time: f64, message: String },
 }
 
 impl fmt::Display for SimError {
@@ -123,6 +127,11 @@ impl fmt::Display for SimError {
             SimError::Backwards { now, requested } => {
                 write!(f, "requested time {requested} lies before the current time {now}")
             }
+            SimError::Integration { time, message } => write!(
+                f,
+                "the integration of a nonlinear contact phase failed at t = {time}: {message}; \
+                 loosen solver.integration_tolerance or check the contact parameters"
+            ),
         }
     }
 }
@@ -155,6 +164,9 @@ pub struct StopState {
     pub impulse_mark: f64,
     /// Energy dissipated in the stop up to `SimState::accounted`.
     pub dissipated: f64,
+    /// Approach speed at the latest contact onset (the hysteretic Hertz
+    /// damping scales with it).
+    pub onset_speed: f64,
 }
 
 /// Everything that evolves; with the model and inputs it determines the
@@ -231,6 +243,8 @@ enum Segment {
         /// The reaction (seed eq. 33) of each held stop.
         reactions: Vec<Option<Functional>>,
     },
+    /// A nonlinear stop engaged: integrated.
+    Integrated(Box<integrated::IntegratedSegment>),
 }
 
 /// A run of one model.
@@ -305,6 +319,7 @@ impl Simulation {
                 impulse: 0.0,
                 impulse_mark: 0.0,
                 dissipated: 0.0,
+                onset_speed: s.geometry.penetration_rate(&initial.qd).max(0.0),
             });
         }
         let state = SimState {
@@ -357,6 +372,12 @@ impl Simulation {
             transfer_system: None,
         };
         sim.rebuild_segment()?;
+        // An integrated phase rebuilds its steps from the anchor.
+        let reach = sim.state.scan.max(sim.state.time);
+        sim.replay_to(reach)?;
+        if let Segment::Integrated(seg) = &mut sim.segment {
+            seg.settle_at(sim.state.time);
+        }
         Ok(sim)
     }
 
@@ -499,7 +520,7 @@ impl Simulation {
             // The work the structure does on compliant stops, F p'.
             for &i in &pressed {
                 let (s, g) = (&self.model.stops[i], &self.geometries[i]);
-                into_stops += w * s.law.force(Contact::Pressed, g, &st) * g.penetration_rate(&st.qd);
+                into_stops += w * s.law.force(Contact::Pressed, g, &st, 0.0) * g.penetration_rate(&st.qd);
             }
         });
         let b = self.state.balance.as_mut().expect("checked above");
@@ -581,6 +602,7 @@ impl Simulation {
                 pressed_spring(&iq)
             }
             Segment::Free { .. } => 0.0,
+            Segment::Integrated(seg) => seg.phase.contacts.iter().position(|c| c.stop == i).map_or(0.0, |k| seg.totals_at(k, t).0),
             Segment::Coupled { system, forcing, segment, reactions, .. } => match self.state.stops[i].contact {
                 Contact::Held => {
                     let r = reactions[i].as_ref().expect("a held stop has a reaction");
@@ -618,7 +640,7 @@ impl Simulation {
         let (s, g) = (&self.model.stops[i], &self.geometries[i]);
         match self.state.stops[i].contact {
             Contact::Held => -g.side * self.reaction(i),
-            c => s.law.force(c, g, &self.state.current),
+            c => s.law.force(c, g, &self.state.current, self.state.stops[i].onset_speed),
         }
     }
 
@@ -630,7 +652,7 @@ impl Simulation {
     /// Energy dissipated in stop `i` since the start (its dashpot, and the
     /// spring energy left when a dashpot ends contact while penetrated).
     pub fn stop_dissipated_energy(&self, i: usize) -> f64 {
-        let mut d = self.state.stops[i].dissipated;
+        let mut d = self.state.stops[i].dissipated + self.segment_dissipation(i);
         if self.state.accounted < self.state.time {
             let mut probe = Simulation { record_events: false, scratch: None, ..self.clone() };
             probe.accumulate_dissipation(self.state.time);
@@ -645,6 +667,19 @@ impl Simulation {
         for i in 0..self.model.stops.len() {
             let p = self.segment_impulse(i, t, at_t);
             self.state.stops[i].impulse += p;
+        }
+        if let Segment::Integrated(seg) = &self.segment {
+            for (k, c) in seg.phase.contacts.iter().enumerate() {
+                self.state.stops[c.stop].dissipated += seg.totals_at(k, t).1.max(0.0);
+            }
+        }
+    }
+
+    /// Energy an integrated phase's contacts dissipated since its anchor.
+    fn segment_dissipation(&self, i: usize) -> f64 {
+        match &self.segment {
+            Segment::Integrated(seg) => seg.phase.contacts.iter().position(|c| c.stop == i).map_or(0.0, |k| seg.totals_at(k, self.state.time).1.max(0.0)),
+            _ => 0.0,
         }
     }
 
@@ -683,7 +718,7 @@ impl Simulation {
                 }
                 None => 0.0,
             },
-            Segment::Free { .. } => 0.0,
+            Segment::Free { .. } | Segment::Integrated(_) => 0.0,
         }
     }
 
@@ -788,6 +823,7 @@ impl Simulation {
                     k.ger(ks, w, w, 1.0);
                     d.ger(c, w, w, 1.0);
                 }
+                PhaseTerm::Nonlinear => unreachable!("nonlinear phases are integrated, not coupled"),
             }
         }
         let w = if cols.is_empty() { nalgebra::DMatrix::zeros(n, 0) } else { nalgebra::DMatrix::from_columns(&cols) };
@@ -924,6 +960,11 @@ impl Simulation {
             return Ok(());
         }
         let key = self.phase_key();
+        let nonlinear = self.model.stops.iter().zip(&self.state.stops).any(|(m, s)| m.law.term(s.contact) == PhaseTerm::Nonlinear);
+        if nonlinear {
+            self.segment = Segment::Integrated(Box::new(self.integrated_segment()?));
+            return Ok(());
+        }
         if key.iter().all(|c| *c == Contact::Open) {
             let anchor = &self.state.anchor;
             let f0 = DVector::zeros(self.model.n_modes());
@@ -974,6 +1015,7 @@ impl Simulation {
         match &self.segment {
             Segment::Free { segment, .. } => segment.state_at(&self.dynamics, t, out),
             Segment::Coupled { system, segment, .. } => segment.state_at(system, t, out),
+            Segment::Integrated(seg) => seg.state_at(t, out),
         }
     }
 
@@ -1022,6 +1064,7 @@ impl Simulation {
                     });
                 }
             }
+            Segment::Integrated(_) => unreachable!("integrated phases search on their own steps"),
             Segment::Coupled { system, forcing, segment, events, .. } => {
                 segment.state_at(system, t, st);
                 let sample = segment.sample(system, t);
@@ -1079,6 +1122,22 @@ impl Simulation {
         let mut probes = 0u64;
         let (start, balance_rate) = (self.state.time, self.balance_nodes_per_time());
         loop {
+            if matches!(self.segment, Segment::Integrated(_)) {
+                let Some((te, at, at_zero)) = self.integrated_search(t_end, &mut probes).inspect_err(|_| self.stop_at(self.state.scan.min(t_end)))? else { break };
+                count += 1;
+                self.stats.events += 1;
+                if count > self.model.max_events_per_step {
+                    self.stop_at(te);
+                    return Err(SimError::TooManyEvents { time: te, count });
+                }
+                let anchor = self.state.anchor_time;
+                self.handle_events(te, at, at_zero)?;
+                if self.state.anchor_time == anchor && matches!(self.segment, Segment::Integrated(_)) {
+                    // Nothing switched: search on past the zero.
+                    self.state.scan = self.state.scan.max(te);
+                }
+                continue;
+            }
             let l = self.state.scan;
             if l > t_end {
                 break;
@@ -1125,6 +1184,9 @@ impl Simulation {
         }
         self.account(t_end);
         self.state.time = t_end;
+        if let Segment::Integrated(seg) = &mut self.segment {
+            seg.settle_at(t_end);
+        }
         let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
         self.state_at(t_end, &mut current);
         self.state.current = current;
@@ -1140,6 +1202,15 @@ impl Simulation {
     fn certifies_up_to_scan(&self, max_probes: u64) -> bool {
         let target = self.state.scan;
         let mut check = Simulation { record_events: false, scratch: None, ..self.clone() };
+        if matches!(check.segment, Segment::Integrated(_)) {
+            // Replay the phase and search it from the current time.
+            if check.rebuild_segment().is_err() {
+                return false;
+            }
+            check.state.scan = check.state.time;
+            let mut probes = 0;
+            return matches!(check.integrated_search(target, &mut probes), Ok(None));
+        }
         check.state.scan = check.state.time;
         let mut buffers = ProbeBuffers::new(&check.dynamics);
         let mut st = ModalState::zeros(check.model.n_modes());
@@ -1226,6 +1297,7 @@ impl Simulation {
                 Contact::Pressed if was[i] == Contact::Open => {
                     counters.impacts += 1;
                     counters.last_impact = t;
+                    counters.onset_speed = rate.max(0.0);
                     self.record(t, EventKind::Contact { stop: i, speed: rate });
                 }
                 Contact::Open | Contact::Penetrated if was[i] == Contact::Pressed => {

@@ -4,6 +4,8 @@
 //! damped oscillators ([`free`]); sticking and compliant contact couple the
 //! modes ([`lti`]). Both are propagated in closed form from the state at the
 //! last event, and [`events`] finds the next switch of any of them.
+//! Nonlinear phases (Hertz contact, rotating beams) are integrated by
+//! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks.
 
 pub mod events;
 pub mod forcing;
@@ -12,6 +14,7 @@ pub mod functional;
 pub mod lti;
 pub mod oscillator;
 pub mod quadrature;
+pub mod radau;
 
 pub use forcing::{Harmonic, ModalForcing};
 pub use free::{FreeDynamics, FreeSegment, ModalState};

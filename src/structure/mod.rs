@@ -3,6 +3,7 @@
 
 pub mod beam;
 pub mod chain;
+pub mod rotating;
 pub mod tip_spring;
 
 pub use beam::{Beam, Support};

@@ -1,0 +1,237 @@
+//! The Hertz stop: a nonlinear spring that pushes and never pulls,
+//! `F = max(0, K p^1.5 + damping)` with `p` the penetration (seed 004
+//! eqs. 2-4: `F = K gamma^1.5 + C gamma'`), and the damping either the
+//! seed's linear `C p'` or a hysteretic one that vanishes with the
+//! penetration and so keeps the force continuous at the onset:
+//! - Hunt & Crossley (1975), as calibrated by Marhefka & Orin (1999):
+//!   `K p^1.5 (1 + 3 (1 - e) / 2 * p' / v0)`;
+//! - Lankarani & Nikravesh (1990): `K p^1.5 (1 + 3 (1 - e^2) / 4 * p' / v0)`,
+//!
+//! with `v0` the approach speed at the onset and `e` the restitution they
+//! aim at. The force is not linear in the state, so its contact phases are
+//! integrated (`PhaseTerm::Nonlinear`); the onset is the free flight's gap
+//! closing, located exactly like every other law's. Its switches:
+//! - apart, the gap closes: pressed;
+//! - pressed, the force reaches zero: apart if `p <= 0`, else penetrated
+//!   without force (the damping would pull);
+//! - penetrated, the force turns positive: pressed again; or the point
+//!   leaves the surface: apart.
+
+use serde::{Deserialize, Serialize};
+
+use super::{closing, Contact, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use crate::solve::Jet;
+use crate::units::Unit;
+
+/// Scene schema: `{"type": "hertz", "K": ..., "C": ..., "damping": "linear"
+/// | "hunt_crossley" | "lankarani_nikravesh", "e": ...}` (`C` with linear
+/// damping, `e` with the other two).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Hertz {
+    /// `K` of `K p^1.5` (N/m^1.5 in SI scenes).
+    #[serde(rename = "K")]
+    pub stiffness: f64,
+    /// `C` of the seed's linear damping `C p'` (N s/m).
+    #[serde(rename = "C", default)]
+    pub damping_coefficient: f64,
+    #[serde(default, skip_serializing_if = "HertzDamping::is_linear")]
+    pub damping: HertzDamping,
+    /// The restitution the hysteretic damping aims at.
+    #[serde(rename = "e", default = "one")]
+    pub restitution: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// The damping term of a Hertz stop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum HertzDamping {
+    /// `C p'` (seed 004): the force jumps by `C v0` at the onset.
+    #[default]
+    Linear,
+    /// `K p^1.5 * 3 (1 - e) / 2 * p' / v0`.
+    HuntCrossley,
+    /// `K p^1.5 * 3 (1 - e^2) / 4 * p' / v0`.
+    LankaraniNikravesh,
+}
+
+impl HertzDamping {
+    pub fn is_linear(&self) -> bool {
+        *self == HertzDamping::Linear
+    }
+}
+
+const STIFFNESS: ParamSpec = ParamSpec {
+    key: "K",
+    description: "Hertz stiffness of stop '{stop}' (force K p^1.5 + damping, p the penetration)",
+    unit: Unit::NewtonPerMetre1_5,
+    range: RangeKind::HertzStiffness,
+    tunable: true,
+};
+
+impl Hertz {
+    const LINEAR: &'static [ParamSpec] = &[
+        STIFFNESS,
+        ParamSpec {
+            key: "C",
+            description: "Linear damping C of the Hertz stop '{stop}' (force K p^1.5 + C p', never pulling)",
+            unit: Unit::NewtonSecondPerMetre,
+            range: RangeKind::Damping,
+            tunable: true,
+        },
+    ];
+    const HYSTERETIC: &'static [ParamSpec] = &[
+        STIFFNESS,
+        ParamSpec {
+            key: "e",
+            description: "Restitution the hysteretic damping of the Hertz stop '{stop}' aims at",
+            unit: Unit::One,
+            range: RangeKind::Unit,
+            tunable: true,
+        },
+    ];
+
+    pub fn parameters(&self) -> &'static [ParamSpec] {
+        match self.damping {
+            HertzDamping::Linear => Self::LINEAR,
+            _ => Self::HYSTERETIC,
+        }
+    }
+
+    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
+        let second = match self.damping {
+            HertzDamping::Linear => &mut self.damping_coefficient,
+            _ => &mut self.restitution,
+        };
+        [&mut self.stiffness, second].into_iter().nth(k).expect("a Hertz parameter")
+    }
+
+    pub fn term(&self, contact: Contact) -> PhaseTerm {
+        match contact {
+            Contact::Pressed | Contact::Penetrated => PhaseTerm::Nonlinear,
+            _ => PhaseTerm::None,
+        }
+    }
+
+    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
+        match contact {
+            Contact::Pressed => &[Watch::Force, Watch::Penetration],
+            Contact::Penetrated => &[Watch::NegatedForce, Watch::Penetration],
+            Contact::Open | Contact::Held => &[Watch::Gap],
+        }
+    }
+
+    /// `p'` factor of the hysteretic damping (`alpha / v0`), 0 without.
+    fn hysteresis(&self, onset_speed: f64) -> f64 {
+        let e = self.restitution;
+        let alpha = match self.damping {
+            HertzDamping::Linear => return 0.0,
+            HertzDamping::HuntCrossley => 1.5 * (1.0 - e),
+            HertzDamping::LankaraniNikravesh => 0.75 * (1.0 - e * e),
+        };
+        if onset_speed > 0.0 {
+            alpha / onset_speed
+        } else {
+            0.0
+        }
+    }
+
+    /// The unclamped force `K p^1.5 + damping` at penetration `p > 0`, rate
+    /// `pd`, and its derivatives with respect to `p` and `pd`.
+    pub fn raw_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        let pp = p.max(0.0);
+        let root = pp.sqrt();
+        let spring = self.stiffness * pp * root;
+        let h = self.hysteresis(onset_speed);
+        let c = self.damping_coefficient * self.damping.is_linear() as u8 as f64;
+        let f = spring * (1.0 + h * pd) + c * pd;
+        let df_dp = 1.5 * self.stiffness * root * (1.0 + h * pd);
+        let df_dpd = spring * h + c;
+        (f, df_dp, df_dpd)
+    }
+
+    /// The force the stop pushes with (>= 0) in contact state `contact`.
+    pub fn force(&self, contact: Contact, p: f64, pd: f64, onset_speed: f64) -> f64 {
+        match contact {
+            Contact::Pressed => self.raw_force(p, pd, onset_speed).0.max(0.0),
+            _ => 0.0,
+        }
+    }
+
+    /// Elastic energy stored in the stop, `2/5 K p^2.5`.
+    pub fn stored_energy(&self, p: f64) -> f64 {
+        let pp = p.max(0.0);
+        0.4 * self.stiffness * pp * pp * pp.sqrt()
+    }
+
+    /// The value of a watched function at penetration `p`, rate `pd`.
+    pub fn watched_value(&self, watch: Watch, p: f64, pd: f64, onset_speed: f64) -> f64 {
+        match watch {
+            Watch::Force => self.raw_force(p, pd, onset_speed).0,
+            Watch::NegatedForce => -self.raw_force(p, pd, onset_speed).0,
+            Watch::Penetration => p,
+            Watch::Gap => -p,
+            Watch::Reaction => unreachable!("a Hertz stop has no reaction"),
+        }
+    }
+
+    pub fn initial_contact(&self, p: f64, pd: f64) -> Contact {
+        if p <= 0.0 {
+            Contact::Open
+        } else if self.raw_force(p, pd, pd.max(0.0)).0 > 0.0 {
+            Contact::Pressed
+        } else {
+            Contact::Penetrated
+        }
+    }
+
+    /// The decision at a zero of `watch`; `p` the penetration there.
+    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, p: f64) -> Switch {
+        match (contact, watch) {
+            (Contact::Open, Watch::Gap) if closing(jet, true) => Switch::To(Contact::Pressed),
+            (Contact::Pressed, Watch::Force) if closing(jet, false) => {
+                if p > 0.0 {
+                    Switch::To(Contact::Penetrated)
+                } else {
+                    Switch::To(Contact::Open)
+                }
+            }
+            (Contact::Pressed | Contact::Penetrated, Watch::Penetration) if closing(jet, false) => Switch::To(Contact::Open),
+            (Contact::Penetrated, Watch::NegatedForce) if closing(jet, false) => Switch::To(Contact::Pressed),
+            _ => Switch::Stay,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derivatives_match_finite_differences() {
+        for damping in [HertzDamping::Linear, HertzDamping::HuntCrossley, HertzDamping::LankaraniNikravesh] {
+            let law = Hertz { stiffness: 3e9, damping_coefficient: 40.0, damping, restitution: 0.6 };
+            let (p, pd, v0) = (2e-5, -0.3, 0.8);
+            let (_, dp, dpd) = law.raw_force(p, pd, v0);
+            let h = 1e-6;
+            let fd_p = (law.raw_force(p * (1.0 + h), pd, v0).0 - law.raw_force(p * (1.0 - h), pd, v0).0) / (2.0 * p * h);
+            let fd_pd = (law.raw_force(p, pd * (1.0 + h), v0).0 - law.raw_force(p, pd * (1.0 - h), v0).0) / (2.0 * pd * h);
+            assert!((dp - fd_p).abs() <= 1e-7 * dp.abs(), "{damping:?}: {dp} vs {fd_p}");
+            assert!((dpd - fd_pd).abs() <= 1e-7 * dpd.abs().max(1e-300), "{damping:?}: {dpd} vs {fd_pd}");
+        }
+    }
+
+    #[test]
+    fn hysteretic_force_is_continuous_at_the_onset() {
+        for damping in [HertzDamping::HuntCrossley, HertzDamping::LankaraniNikravesh] {
+            let law = Hertz { stiffness: 1e9, damping_coefficient: 0.0, damping, restitution: 0.5 };
+            assert_eq!(law.raw_force(0.0, 1.0, 1.0).0, 0.0);
+        }
+        let linear = Hertz { stiffness: 1e9, damping_coefficient: 10.0, damping: HertzDamping::Linear, restitution: 1.0 };
+        assert_eq!(linear.raw_force(0.0, 1.0, 1.0).0, 10.0);
+    }
+}

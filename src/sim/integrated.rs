@@ -1,0 +1,340 @@
+//! Integrated phases: while a nonlinear (Hertz) stop is pressed or
+//! penetrated, the modal equations are integrated by Radau IIA
+//! ([`crate::solve::radau`]) instead of propagated in closed form.
+//!
+//! The integrator starts at the phase's anchor with a step size that
+//! depends only on the anchor, and steps on its own grid: communication
+//! times never shorten a step, so the trajectory does not depend on them,
+//! and a restored state rebuilds the same steps from its anchor (the
+//! state needs no integrator history). Inside each accepted step the
+//! watched functions are sampled on the collocation polynomial at
+//! `SAMPLES` points; the first sample where one is negative brackets the
+//! switch, which bisection then locates to a few ulps, and the state
+//! there is recomputed by one Radau step from the step's start (order 5,
+//! not the polynomial's 3). A switch and a return within one sample
+//! interval (an eighth of a step the error control keeps short against the
+//! contact's own time scale) is the one pattern this cannot see; the
+//! step is also capped at a quarter of the linearised contact period.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::nonlinear::{HertzContact, NonlinearPhase};
+use super::{Channel, SimError, Simulation};
+use crate::contact::{Contact, Law, Watch};
+use crate::solve::radau::{ImplicitSystem, Radau, RadauOptions, Tol};
+use crate::solve::{Functional, Jet, ModalState};
+
+/// Samples of the watched functions per accepted step.
+const SAMPLES: usize = 8;
+
+/// How one channel is evaluated in an integrated phase.
+#[derive(Clone, Debug)]
+pub(super) enum Evaluator {
+    /// A nonlinear stop's watch, on contact `i` of the phase.
+    Nonlinear { contact: usize, watch: Watch },
+    /// A function affine in the modal state (an open stop's gap).
+    Affine(Functional),
+}
+
+/// The integrated segment: the phase's equations, the integrator, and
+/// the last accepted step.
+#[derive(Clone, Debug)]
+pub(super) struct IntegratedSegment {
+    pub phase: NonlinearPhase,
+    pub solver: Radau,
+    pub evaluators: Vec<Evaluator>,
+    /// The last accepted step `[t0, t1]` and the state at its start.
+    pub step: Option<(f64, f64, DVector<f64>)>,
+    /// The state at a time inside the last step computed by a Radau step
+    /// of its own from the step's start (order 5, where the collocation
+    /// polynomial has order 3): what the outputs read.
+    pub exact: Option<(f64, DVector<f64>)>,
+    pub anchor_time: f64,
+    pub anchor: DVector<f64>,
+}
+
+impl ImplicitSystem for NonlinearPhase {
+    fn dim(&self) -> usize {
+        NonlinearPhase::dim(self)
+    }
+
+    fn rhs(&mut self, t: f64, y: &DVector<f64>, dy: &mut DVector<f64>) {
+        NonlinearPhase::rhs(self, t, y.as_slice(), dy.as_mut_slice());
+    }
+
+    fn jacobian(&mut self, t: f64, y: &DVector<f64>, jac: &mut DMatrix<f64>) -> bool {
+        NonlinearPhase::jacobian(self, t, y.as_slice(), jac);
+        true
+    }
+}
+
+impl IntegratedSegment {
+    /// The integrated state `[q; q'; J; E]` at `t` in the last step (the
+    /// anchor before the first).
+    pub fn y_at(&self, t: f64, out: &mut DVector<f64>) {
+        if let Some((te, y)) = &self.exact {
+            if *te == t {
+                out.copy_from(y);
+                return;
+            }
+        }
+        match &self.step {
+            Some((t0, _, y0)) if t == *t0 => out.copy_from(y0),
+            Some(_) => {
+                if self.solver.dense(t, out).is_err() {
+                    // Outside the last step (never asked): its nearest end.
+                    out.copy_from(self.solver.y());
+                }
+            }
+            None => out.copy_from(&self.anchor),
+        }
+    }
+
+    pub fn state_at(&self, t: f64, out: &mut ModalState) {
+        let n = self.phase.n;
+        let mut y = DVector::zeros(self.phase.dim());
+        self.y_at(t, &mut y);
+        out.q.copy_from(&y.rows(0, n));
+        out.qd.copy_from(&y.rows(n, n));
+    }
+
+    /// The impulse and dissipated energy of the phase's contact `i` from
+    /// the anchor to `t`.
+    pub fn totals_at(&self, i: usize, t: f64) -> (f64, f64) {
+        let mut y = DVector::zeros(self.phase.dim());
+        self.y_at(t, &mut y);
+        let (n, nc) = (self.phase.n, self.phase.contacts.len());
+        (y[2 * n + i], y[2 * n + nc + i])
+    }
+
+    fn value(&self, e: &Evaluator, y: &DVector<f64>) -> f64 {
+        match e {
+            Evaluator::Nonlinear { contact, watch } => {
+                let (p, pd) = self.phase.penetration(*contact, y.as_slice());
+                let c = &self.phase.contacts[*contact];
+                c.law.watched_value(*watch, p, pd, c.onset_speed)
+            }
+            Evaluator::Affine(h) => {
+                let n = self.phase.n;
+                h.offset + h.q.iter().zip(y.rows(0, n).iter()).map(|(a, b)| a * b).sum::<f64>()
+            }
+        }
+    }
+}
+
+impl IntegratedSegment {
+    /// Computes and keeps the state at `t` inside the last step to the
+    /// method's full order (see [`Self::exact`]).
+    pub fn settle_at(&mut self, t: f64) {
+        let Some((t0, t1, y0)) = self.step.clone() else { return };
+        if t <= t0 || t >= t1 || t > self.solver.t() {
+            return;
+        }
+        let mut y = DVector::zeros(self.phase.dim());
+        if one_step(&mut self.phase, t0, &y0, t, &mut y).is_ok() {
+            self.exact = Some((t, y));
+        }
+    }
+}
+
+impl Simulation {
+    /// The integrated segment of a phase with a nonlinear stop engaged.
+    pub(super) fn integrated_segment(&self) -> Result<IntegratedSegment, SimError> {
+        let n = self.model.n_modes();
+        let omega2 = DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega));
+        let two_a = DVector::from_iterator(n, self.model.oscillators.iter().map(|o| 2.0 * o.a));
+        let mut contacts = Vec::new();
+        let mut index = vec![usize::MAX; self.model.stops.len()];
+        for (i, (m, s)) in self.model.stops.iter().zip(&self.state.stops).enumerate() {
+            if let Law::Hertz(law) = &m.law {
+                if s.contact != Contact::Open {
+                    index[i] = contacts.len();
+                    contacts.push(HertzContact { stop: i, law: law.clone(), geometry: self.geometries[i].clone(), contact: s.contact, onset_speed: s.onset_speed });
+                }
+            }
+        }
+        let evaluators = self
+            .channels
+            .iter()
+            .map(|ch: &Channel| match self.state.stops[ch.stop].contact {
+                Contact::Open => Evaluator::Affine(self.gap_functionals[ch.stop].clone()),
+                _ => Evaluator::Nonlinear { contact: index[ch.stop], watch: ch.watch },
+            })
+            .collect();
+        // A step no longer than a quarter of the fastest linearised contact
+        // period at the larger of the current and a millionth-of-the-gap
+        // penetration, nor the structure's shortest period.
+        let mut max_step = self.model.shortest_period();
+        let (mut scale_q, mut scale_v) = (0.0f64, 0.0f64);
+        for c in &contacts {
+            let g = &c.geometry;
+            let w2 = g.w.dot(&g.w);
+            let w_max = g.w.amax().max(f64::MIN_POSITIVE);
+            // Effective mass of the point, 1 / |w|^2; the deepest
+            // penetration of a mass that size arriving at the onset speed,
+            // (5 m v0^2 / 4 K)^(2/5), sets the scale of the contact.
+            let v0 = c.onset_speed.max(g.penetration_rate(&self.state.anchor.qd).abs());
+            let depth = (1.25 * v0 * v0 / (c.law.stiffness * w2)).powf(0.4);
+            let p = g.penetration(&self.state.anchor.q).max(depth).max(1e-6 * g.gap.abs());
+            let k_lin = 1.5 * c.law.stiffness * p.sqrt();
+            let omega_c = (k_lin * w2).sqrt();
+            if omega_c > 0.0 {
+                max_step = max_step.min(0.25 * std::f64::consts::TAU / omega_c);
+            }
+            scale_q = scale_q.max(g.gap.abs().max(depth) / w_max);
+            scale_v = scale_v.max(v0 / w_max);
+        }
+        let mut phase = NonlinearPhase::new(omega2, two_a, self.dynamics.forcing.clone(), contacts);
+        let dim = phase.dim();
+        let mut anchor = DVector::zeros(dim);
+        anchor.rows_mut(0, n).copy_from(&self.state.anchor.q);
+        anchor.rows_mut(n, n).copy_from(&self.state.anchor.qd);
+        let tol = self.model.integration_tolerance;
+        let q_scale = scale_q.max(self.state.anchor.q.amax()).max(f64::MIN_POSITIVE);
+        let slowest = self.model.oscillators.iter().map(|o| o.omega).fold(f64::INFINITY, f64::min);
+        let v_scale = (q_scale * slowest).max(scale_v).max(self.state.anchor.qd.amax()).max(f64::MIN_POSITIVE);
+        let mut atol = DVector::zeros(dim);
+        atol.rows_mut(0, n).fill(tol * q_scale);
+        atol.rows_mut(n, n).fill(tol * v_scale);
+        // Impulses and dissipation are integrals of the state, as accurate
+        // as it: they need no error control of their own.
+        atol.rows_mut(2 * n, dim - 2 * n).fill(1e100);
+        let options = RadauOptions { rtol: Tol::Scalar(tol), atol: Tol::Vector(atol), h_max: max_step, max_steps: u64::MAX, ..RadauOptions::default() };
+        let solver = Radau::new(&mut phase, self.state.anchor_time, &anchor, options)
+            .map_err(|e| SimError::Integration { time: self.state.anchor_time, message: e.to_string() })?;
+        Ok(IntegratedSegment { phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor })
+    }
+
+    /// Steps the integrated phase until its steps cover `t` (a restored
+    /// state replays its phase from the anchor).
+    pub(super) fn replay_to(&mut self, t: f64) -> Result<(), SimError> {
+        let super::Segment::Integrated(seg) = &mut self.segment else { return Ok(()) };
+        while seg.step.as_ref().map_or(seg.anchor_time < t, |s| s.1 < t) {
+            take_step(seg)?;
+        }
+        Ok(())
+    }
+
+    /// The event search of an integrated phase from `scan` up to `t_end`:
+    /// the first switch with the state there and the channels at zero, or
+    /// `None` when `[scan, t_end]` is clear (then `scan` stays at or before
+    /// `t_end`, inside the last step).
+    pub(super) fn integrated_search(&mut self, t_end: f64, probes: &mut u64) -> Result<Option<(f64, ModalState, Vec<(usize, Jet)>)>, SimError> {
+        let max_probes = self.model.max_probes_per_step;
+        loop {
+            let scan = self.state.scan;
+            if scan >= t_end && scan > self.state.anchor_time {
+                return Ok(None);
+            }
+            let super::Segment::Integrated(seg) = &mut self.segment else { unreachable!("an integrated segment") };
+            if seg.step.as_ref().map_or(true, |s| s.1 <= scan) {
+                *probes += 1;
+                self.stats.probes += 1;
+                if *probes > max_probes {
+                    return Err(SimError::TooMuchWork { time: scan, probes: *probes - 1 });
+                }
+                take_step(seg)?;
+            }
+            let (t0, t1, _) = seg.step.clone().expect("a step");
+            let dim = seg.phase.dim();
+            let mut y = DVector::zeros(dim);
+            let h = t1 - t0;
+            let mut previous = t0;
+            for k in 1..=SAMPLES {
+                let s = if k == SAMPLES { t1 } else { t0 + h * k as f64 / SAMPLES as f64 };
+                if s <= scan {
+                    previous = s;
+                    continue;
+                }
+                seg.y_at(s, &mut y);
+                let negative: Vec<usize> = (0..seg.evaluators.len()).filter(|&c| seg.value(&seg.evaluators[c], &y) < 0.0).collect();
+                if negative.is_empty() {
+                    if s > t_end {
+                        // Clear to beyond t_end; the sample grid is the
+                        // step's, so the next search sees the same samples.
+                        self.state.scan = self.state.scan.max(t_end);
+                        return Ok(None);
+                    }
+                    self.state.scan = s;
+                    previous = s;
+                    continue;
+                }
+                // Locate each negative channel's first zero in (lo, s].
+                // The bracket starts at the previous sample of the step's
+                // grid (not at `scan`), so a search resumed inside a step
+                // finds bit for bit the zero an uninterrupted one finds.
+                let lo = previous;
+                let mut roots: Vec<(usize, f64, f64)> = Vec::new();
+                for &c in &negative {
+                    let (mut a, mut b) = (lo, s);
+                    let vb = seg.value(&seg.evaluators[c], &y);
+                    let mut ya = DVector::zeros(dim);
+                    seg.y_at(a, &mut ya);
+                    let va = seg.value(&seg.evaluators[c], &ya);
+                    let slope = if b > a { (vb - va.max(0.0)) / (b - a) } else { -1.0 };
+                    if va >= 0.0 {
+                        let mut ym = DVector::zeros(dim);
+                        loop {
+                            let m = 0.5 * (a + b);
+                            if !(m > a && m < b) {
+                                break;
+                            }
+                            seg.y_at(m, &mut ym);
+                            if seg.value(&seg.evaluators[c], &ym) < 0.0 {
+                                b = m;
+                            } else {
+                                a = m;
+                            }
+                        }
+                    }
+                    roots.push((c, b, slope.min(-f64::MIN_POSITIVE)));
+                }
+                let te = roots.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+                if te > t_end {
+                    self.state.scan = self.state.scan.max(t_end);
+                    return Ok(None);
+                }
+                // The state at the switch: one Radau step from the step's start.
+                let y0 = seg.step.as_ref().expect("a step").2.clone();
+                let mut at = DVector::zeros(dim);
+                if te == t1 || te <= t0 || one_step(&mut seg.phase, t0, &y0, te, &mut at).is_err() {
+                    seg.y_at(te, &mut at);
+                }
+                let n = seg.phase.n;
+                let mut st = ModalState::zeros(n);
+                st.q.copy_from(&at.rows(0, n));
+                st.qd.copy_from(&at.rows(n, n));
+                // Channels whose zero lies within a few ulps of the first.
+                let close = 4.0 * f64::EPSILON * te.abs().max(f64::MIN_POSITIVE);
+                let at_zero = roots
+                    .iter()
+                    .filter(|r| r.1 - te <= close)
+                    .map(|&(c, _, slope)| {
+                        let value = seg.value(&seg.evaluators[c], &at);
+                        (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
+                    })
+                    .collect();
+                return Ok(Some((te, st, at_zero)));
+            }
+            self.state.scan = t1;
+        }
+    }
+}
+
+/// One Radau step from `(t0, y0)` to `t1` without error control: the state
+/// at a switch to the method's full order.
+fn one_step(phase: &mut NonlinearPhase, t0: f64, y0: &DVector<f64>, t1: f64, out: &mut DVector<f64>) -> Result<(), crate::solve::radau::RadauError> {
+    let options = RadauOptions { h_init: Some(t1 - t0), fixed_step: true, ..RadauOptions::default() };
+    let mut solver = Radau::new(phase, t0, y0, options)?;
+    solver.step(phase, t1)?;
+    out.copy_from(solver.y());
+    Ok(())
+}
+
+fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
+    let (t0, y0) = (seg.solver.t(), seg.solver.y().clone_owned());
+    let (a, b) = seg.solver.step(&mut seg.phase, f64::MAX).map_err(|e| SimError::Integration { time: t0, message: e.to_string() })?;
+    debug_assert_eq!(a, t0);
+    seg.step = Some((a, b, y0));
+    Ok(())
+}

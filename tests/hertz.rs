@@ -1,0 +1,285 @@
+//! The Hertz stop `F = max(0, K p^1.5 + damping)` (seed 004 eqs. 2-4),
+//! whose contact phases are integrated (Radau IIA), against independent
+//! computations: a fine-step RK4 integration of the same modal equations
+//! with its own switch location, conservation of energy, the classical
+//! Hertz impact of a mass (duration from the energy integral), the
+//! restitution the hysteretic damping aims at, no step collapse as K grows,
+//! and independence from the communication step and from a save/restore.
+
+use beamstop::codec::{Reader, Writer};
+use beamstop::contact::{Contact, Law};
+use beamstop::{EventKind, Model, Scene, Simulation};
+use nalgebra::DVector;
+
+/// A pinned-pinned beam in scaled units (3 modes) under a distributed
+/// harmonic load, with a Hertz stop at `x = 0.4` on the + side.
+fn beam_scene(law: &str, zeta: f64, amplitude: f64, qd0: f64) -> Scene {
+    beam_scene_with(law, zeta, amplitude, qd0, 1e-10)
+}
+
+fn beam_scene_with(law: &str, zeta: f64, amplitude: f64, qd0: f64, tolerance: f64) -> Scene {
+    let text = format!(
+        r#"{{
+  "name": "HertzBeam",
+  "structure": {{ "type": "beam", "support": "pinned-pinned", "modes": 3 }},
+  "damping": {{ "zeta": {zeta} }},
+  "loads": [ {{ "type": "distributed_harmonic", "name": "load", "amplitude": {amplitude}, "omega": 6.0, "waveform": "sin" }} ],
+  "stops": [ {{ "name": "stop", "x": 0.4, "gap": 0.2, "side": "positive", "law": {law} }} ],
+  "initial": {{ "qd": [{qd0}] }},
+  "solver": {{ "integration_tolerance": {tolerance} }}
+}}"#
+    );
+    Scene::from_json(&text).unwrap()
+}
+
+/// One mass on a spring (SI) moving at `v0` onto a Hertz stop at its rest
+/// position: with `k` small against the contact, the classical Hertz impact.
+fn mass_scene(k_contact: f64, law_extra: &str, v0: f64, spring: f64) -> Scene {
+    let text = format!(
+        r#"{{
+  "name": "HertzMass",
+  "units": "SI",
+  "structure": {{ "type": "chain", "masses": 1, "m": 0.5, "k": {spring}, "c": 0.0 }},
+  "stops": [ {{ "name": "stop", "mass": 1, "gap": 0.0, "side": "positive", "law": {{ "type": "hertz", "K": {k_contact} {law_extra} }} }} ],
+  "initial": {{ "qd": [{v0}] }}
+}}"#
+    );
+    Scene::from_json(&text).unwrap()
+}
+
+/// RK4 with step `h` on `q'' = f - 2 a q' - omega^2 q - side w F(p, p')`,
+/// the force on while `p > 0` and the raw force is positive, its switches
+/// located by bisection on the step length.
+fn rk4_reference(model: &Model, times: &[f64], h: f64) -> (Vec<DVector<f64>>, usize) {
+    let n = model.n_modes();
+    let stop = &model.stops[0];
+    let Law::Hertz(law) = &stop.law else { panic!("hertz") };
+    let (w, side, gap) = (&stop.geometry.w, stop.geometry.side, stop.geometry.gap);
+    let pen = |y: &DVector<f64>| (side * w.dot(&y.rows(0, n)) - gap, side * w.dot(&y.rows(n, n)));
+    let pushes = |y: &DVector<f64>, v0: f64| {
+        let (p, pd) = pen(y);
+        p > 0.0 && law.raw_force(p, pd, v0).0 > 0.0
+    };
+    let rhs = |t: f64, y: &DVector<f64>, contact: bool, v0: f64| -> DVector<f64> {
+        let mut f = DVector::zeros(n);
+        model.loads.derivative(t, 0, &mut f);
+        let mut out = DVector::zeros(2 * n);
+        let force = if contact {
+            let (p, pd) = pen(y);
+            law.raw_force(p.max(0.0), pd, v0).0
+        } else {
+            0.0
+        };
+        for j in 0..n {
+            let o = &model.oscillators[j];
+            out[j] = y[n + j];
+            out[n + j] = f[j] - 2.0 * o.a * y[n + j] - o.omega * o.omega * y[j] - side * w[j] * force;
+        }
+        out
+    };
+    let step = |t: f64, y: &DVector<f64>, dt: f64, contact: bool, v0: f64| -> DVector<f64> {
+        let k1 = rhs(t, y, contact, v0);
+        let k2 = rhs(t + dt / 2.0, &(y + &k1 * (dt / 2.0)), contact, v0);
+        let k3 = rhs(t + dt / 2.0, &(y + &k2 * (dt / 2.0)), contact, v0);
+        let k4 = rhs(t + dt, &(y + &k3 * dt), contact, v0);
+        y + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (dt / 6.0)
+    };
+    let mut y = DVector::zeros(2 * n);
+    y.rows_mut(0, n).copy_from(&model.initial.q);
+    y.rows_mut(n, n).copy_from(&model.initial.qd);
+    let (mut t, mut contact, mut onsets, mut v0) = (0.0, false, 0, 0.0);
+    let mut out = Vec::new();
+    for &target in times {
+        while t < target {
+            let dt = h.min(target - t);
+            let next = step(t, &y, dt, contact, v0);
+            if pushes(&next, v0) != contact {
+                let (mut lo, mut hi) = (0.0, dt);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    let probe = step(t, &y, mid, contact, v0);
+                    let switched = pushes(&probe, v0) != contact;
+                    if switched {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                let y_before = y.clone();
+                y = step(t, &y, hi, contact, v0);
+                t += hi;
+                contact = !contact;
+                // An onset from outside (not a re-engagement while penetrated).
+                if contact && pen(&step(t - hi, &y_before, 0.0, false, v0)).0 <= 0.0 {
+                    onsets += 1;
+                    v0 = pen(&y).1;
+                }
+            } else {
+                y = next;
+                t += dt;
+            }
+        }
+        out.push(y.clone());
+    }
+    (out, onsets)
+}
+
+fn run(model: Model, times: &[f64]) -> (Vec<DVector<f64>>, Simulation) {
+    let mut sim = Simulation::new(model, 0.0).unwrap();
+    let mut out = Vec::new();
+    for &t in times {
+        sim.advance_to(t).unwrap();
+        let c = sim.current();
+        out.push(DVector::from_iterator(2 * c.q.len(), c.q.iter().chain(c.qd.iter()).copied()));
+    }
+    (out, sim)
+}
+
+#[test]
+fn integrated_contact_phases_match_rk4() {
+    for law in [
+        r#"{ "type": "hertz", "K": 2e4 }"#,
+        r#"{ "type": "hertz", "K": 2e4, "C": 3.0 }"#,
+        r#"{ "type": "hertz", "K": 2e4, "damping": "lankarani_nikravesh", "e": 0.6 }"#,
+        r#"{ "type": "hertz", "K": 2e4, "damping": "hunt_crossley", "e": 0.6 }"#,
+    ] {
+        let model = Model::build(&beam_scene(law, 0.02, 60.0, 0.0)).unwrap();
+        let times: Vec<f64> = (1..=30).map(|i| 0.1 * i as f64).collect();
+        let (reference, onsets) = rk4_reference(&model, &times, 1e-5);
+        let (integrated, sim) = run(model, &times);
+        let contacts = sim.state().stops[0].impacts as usize;
+        assert!(contacts >= 3, "{law}: only {contacts} contacts");
+        assert_eq!(contacts, onsets, "{law}: contact onsets");
+        let scale = reference.iter().map(|y| y.amax()).fold(0.0, f64::max);
+        let worst = integrated.iter().zip(&reference).map(|(a, b)| (a - b).amax()).fold(0.0, f64::max);
+        assert!(worst < 1e-6 * scale, "{law}: worst {worst:e} against scale {scale:e}");
+    }
+}
+
+#[test]
+fn energy_is_conserved_through_undamped_hertz_contacts() {
+    // No load, no damping: structure energy + the stop's stored energy is
+    // constant through every contact, to the integration's accuracy:
+    // Radau IIA (RADAU5's error control) works at a local tolerance of
+    // 0.1 rtol^(2/3); the drift stays below a quarter of that.
+    for tol in [1e-8, 1e-10, 1e-12] {
+        let model = Model::build(&beam_scene_with(r#"{ "type": "hertz", "K": 5e4 }"#, 0.0, 0.0, 3.0, tol)).unwrap();
+        let mut sim = Simulation::new(model, 0.0).unwrap();
+        let e0 = sim.energy();
+        let mut worst: f64 = 0.0;
+        let mut saw_pressed = false;
+        for i in 1..=4000 {
+            sim.advance_to(i as f64 * 1e-3).unwrap();
+            saw_pressed |= sim.contact(0) == Contact::Pressed;
+            let total = sim.energy() + sim.stop_stored_energy(0);
+            worst = worst.max((total - e0).abs() / e0);
+        }
+        let contacts = sim.state().stops[0].impacts;
+        assert!(contacts >= 5 && saw_pressed, "{contacts} contacts");
+        assert!(worst < 0.25 * tol.powf(2.0 / 3.0), "rtol {tol:e}: relative energy drift {worst:e} over {contacts} contacts");
+        assert!(sim.stop_dissipated_energy(0).abs() < 1e-12 * e0);
+    }
+}
+
+/// `int_0^1 du / sqrt(1 - u^2.5)` by Gauss-Chebyshev-like substitution
+/// `u = 1 - s^2` (removes the end singularity), composite Simpson.
+fn hertz_duration_integral() -> f64 {
+    let g = |s: f64| {
+        let u = 1.0 - s * s;
+        if s == 0.0 {
+            // 1 - u^2.5 ~ 2.5 s^2 near u = 1: the integrand tends to 2 / sqrt(2.5).
+            return 2.0 / 2.5f64.sqrt();
+        }
+        2.0 * s / (1.0 - u.powf(2.5)).sqrt()
+    };
+    let m = 20000;
+    let h = 1.0 / m as f64;
+    (0..=m).map(|i| g(i as f64 * h) * if i == 0 || i == m { 1.0 } else if i % 2 == 1 { 4.0 } else { 2.0 }).sum::<f64>() * h / 3.0
+}
+
+#[test]
+fn a_mass_on_a_hertz_stop_bounces_with_the_classical_duration() {
+    // m x'' = -K x^1.5 (the spring 1e-9 of the contact's stiffness): exit
+    // speed = entry speed, penetration (5 m v0^2 / 4 K)^0.4, duration
+    // 2 x_max / v0 * int_0^1 du / sqrt(1 - u^2.5).
+    let (m, v0, k) = (0.5, 0.3, 1e9);
+    let mut sim = Simulation::new(Model::build(&mass_scene(k, "", v0, 1e-3)).unwrap(), 0.0).unwrap();
+    let mut max_p: f64 = 0.0;
+    let mut t = 0.0;
+    while t < 2e-3 {
+        t += 2e-7;
+        sim.advance_to(t).unwrap();
+        max_p = max_p.max(sim.model().stops[0].geometry.penetration(&sim.current().q));
+    }
+    let events = sim.drain_events();
+    let onset = events.iter().find(|e| matches!(e.kind, EventKind::Contact { .. })).expect("contact").time;
+    let end = events.iter().find(|e| matches!(e.kind, EventKind::Separation { .. })).expect("separation").time;
+    let x_max = (5.0 * m * v0 * v0 / (4.0 * k)).powf(0.4);
+    let duration = 2.0 * x_max / v0 * hertz_duration_integral();
+    assert!(((end - onset) - duration).abs() < 1e-6 * duration, "duration {} vs {duration}", end - onset);
+    assert!((max_p - x_max).abs() < 1e-5 * x_max, "max penetration {max_p} vs {x_max}");
+    let v_out = -sim.model().stops[0].geometry.penetration_rate(&sim.current().qd);
+    assert!((v_out - v0).abs() < 1e-7 * v0, "exit speed {v_out} vs {v0}");
+    // The impulse over the contact is the momentum change 2 m v0.
+    let impulse = sim.impulse_total(0);
+    assert!((impulse - 2.0 * m * v0).abs() < 1e-7 * m * v0, "impulse {impulse} vs {}", 2.0 * m * v0);
+}
+
+#[test]
+fn hysteretic_damping_gives_about_the_restitution_it_aims_at_and_balances_energy() {
+    // Lankarani & Nikravesh derive their factor for e near 1: at e = 0.9 the
+    // exit speed is within a few percent of e v0. The energy lost is what
+    // the stop reports as dissipated.
+    for (damping, e) in [("lankarani_nikravesh", 0.9), ("hunt_crossley", 0.9)] {
+        let (m, v0) = (0.5, 0.3);
+        let extra = format!(r#", "damping": "{damping}", "e": {e}"#);
+        let mut sim = Simulation::new(Model::build(&mass_scene(1e9, &extra, v0, 1e-3)).unwrap(), 0.0).unwrap();
+        sim.advance_to(2e-3).unwrap();
+        let v_out = -sim.model().stops[0].geometry.penetration_rate(&sim.current().qd);
+        let ratio = v_out / v0;
+        assert!((ratio - e).abs() < 0.03, "{damping}: v_out / v0 = {ratio} (aimed at {e})");
+        let lost = 0.5 * m * (v0 * v0 - v_out * v_out);
+        let dissipated = sim.stop_dissipated_energy(0);
+        assert!((dissipated - lost).abs() < 1e-6 * lost, "{damping}: dissipated {dissipated} vs lost {lost}");
+    }
+}
+
+#[test]
+fn integration_work_per_contact_does_not_grow_with_stiffness() {
+    // The contact is scale invariant in time: the steps it takes must not
+    // grow with K (no step collapse from 1e6 to 1e12 N/m^1.5).
+    let mut counts = Vec::new();
+    for k in [1e6, 1e8, 1e10, 1e12] {
+        let mut sim = Simulation::new(Model::build(&mass_scene(k, "", 0.3, 1e-3)).unwrap(), 0.0).unwrap();
+        sim.advance_to(0.05).unwrap();
+        assert_eq!(sim.state().stops[0].impacts, 1, "K = {k}");
+        counts.push(sim.stats().probes as f64);
+    }
+    let (lo, hi) = (counts.iter().copied().fold(f64::INFINITY, f64::min), counts.iter().copied().fold(0.0, f64::max));
+    assert!(hi <= 2.0 * lo, "steps per contact over K = 1e6..1e12: {counts:?}");
+}
+
+#[test]
+fn results_do_not_depend_on_the_communication_step_or_a_restore() {
+    let law = r#"{ "type": "hertz", "K": 2e4, "damping": "lankarani_nikravesh", "e": 0.6 }"#;
+    let model = Model::build(&beam_scene(law, 0.02, 60.0, 0.0)).unwrap();
+    let mut coarse = Simulation::new(model.clone(), 0.0).unwrap();
+    coarse.advance_to(3.0).unwrap();
+    let mut fine = Simulation::new(model.clone(), 0.0).unwrap();
+    let mut saved = None;
+    for i in 1..=3000 {
+        fine.advance_to(i as f64 * 1e-3).unwrap();
+        if saved.is_none() && fine.contact(0) == Contact::Pressed {
+            let mut w = Writer(Vec::new());
+            fine.encode(&mut w);
+            saved = Some(w.0);
+        }
+    }
+    assert!(coarse.state().stops[0].impacts >= 3);
+    assert_eq!(coarse.state().current, fine.state().current, "one step against 3000");
+    let bytes = saved.expect("a contact phase was entered");
+    let mut restored = Simulation::decode(model, vec![], &mut Reader::new(&bytes)).unwrap();
+    restored.advance_to(3.0).unwrap();
+    assert_eq!(restored.state().current, fine.state().current, "restored mid-contact");
+    assert_eq!(restored.impulse_total(0), fine.impulse_total(0));
+}
