@@ -22,6 +22,7 @@ SCENES = {
     "SpringStopSoft": "spring_stop_soft",
     "SpringStopHard": "spring_stop_hard",
     "SpringStopVeryHard": "spring_stop_very_hard",
+    "HertzStop": "hertz_stop",
 }
 
 def modal(n, *patterns):
@@ -52,6 +53,11 @@ for name, modes in (("SpringStopSoft", 5), ("SpringStopHard", 20), ("SpringStopV
         "shaker.amplitude", "shaker.omega", "zeta", "stop.k", "stop.c", "stop.gap", "stop.x",
         *(f"stop.{o}" for o in SPRING_STOP_OUTPUTS), "tip.x", "root.x", "tip.w", "tip.v", "root.M", "energy",
     } | modal(modes, "q0[{j}]", "qd0[{j}]")
+# The Hertz stop: K and the restitution its Lankarani-Nikravesh damping aims at.
+EXPECTED["HertzStop"] = {
+    "shaker.amplitude", "shaker.omega", "zeta", "stop.K", "stop.e", "stop.gap", "stop.x",
+    *(f"stop.{o}" for o in SPRING_STOP_OUTPUTS), "tip.x", "root.x", "tip.w", "tip.v", "root.M", "energy",
+} | modal(20, "q0[{j}]", "qd0[{j}]")
 EXPECTED["WaggBishopCantilever4"] = (EXPECTED["WaggBishopCantilever1"] - modal(1, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")) | modal(
     4, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")
 
