@@ -228,10 +228,15 @@ impl Simulation {
             }
             let super::Segment::Integrated(seg) = &mut self.segment else { unreachable!("an integrated segment") };
             if seg.step.as_ref().map_or(true, |s| s.1 <= scan) {
-                *probes += 1;
+                // A Radau step (a Jacobian, an LU of the 3 dim x 3 dim
+                // collocation system, Newton) costs what about 4 dim points
+                // of the closed-form search cost: it counts that much
+                // against the work cap of a communication step.
+                let weight = 4 * seg.phase.dim() as u64;
+                *probes += weight;
                 self.stats.probes += 1;
                 if *probes > max_probes {
-                    return Err(SimError::TooMuchWork { time: scan, probes: *probes - 1 });
+                    return Err(SimError::TooMuchWork { time: scan, probes: *probes - weight });
                 }
                 take_step(seg)?;
             }
