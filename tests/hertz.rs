@@ -237,6 +237,7 @@ fn hysteretic_damping_gives_about_the_restitution_it_aims_at_and_balances_energy
         sim.advance_to(2e-3).unwrap();
         let v_out = -sim.model().stops[0].geometry.penetration_rate(&sim.current().qd);
         let ratio = v_out / v0;
+        eprintln!("{damping}, e = {e}: v_out / v0 = {ratio}");
         assert!((ratio - e).abs() < 0.03, "{damping}: v_out / v0 = {ratio} (aimed at {e})");
         let lost = 0.5 * m * (v0 * v0 - v_out * v_out);
         let dissipated = sim.stop_dissipated_energy(0);
