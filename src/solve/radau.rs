@@ -7,13 +7,14 @@
 //! estimate `theta`, starting values and dense output from the collocation
 //! polynomial of the last step, transformed tolerances `0.1 rtol^(2/3)`.
 //!
+//! Newton's linear systems `(I - h A (x) J) dZ = R` are solved as in
+//! RADAU5 (sec. IV.8, (8.15)-(8.18)): with `W = (T^-1 (x) I) Z` they split
+//! into one real `n x n` system `(gamma/h I - J)` and one complex one
+//! `((alpha + i beta)/h I - J)`; the real LU also filters the error
+//! estimate (`gamma/h = 1/(h gamma0)`). The iterate, its norm and the
+//! residual stay in `Z` coordinates.
+//!
 //! Departures, all for honesty at non-smooth onsets (Hertz contact):
-//! - The full `3n x 3n` real Newton matrix `I - h A (x) J` is factorised
-//!   (LU, partial pivoting) instead of RADAU5's transformed real + complex
-//!   `n x n` systems: for `n <= 60` that is < 4 Mflop, needs no
-//!   transformation constants, and the matrix solved is literally the one of
-//!   the collocation equations. An `n x n` LU of `I/(h gamma0) - J` filters
-//!   the error estimate.
 //! - Newton is accepted only after the theta rule says "converged" AND one
 //!   more evaluation shows the next increment below the Newton tolerance and
 //!   the raw collocation residual `Z - h (A (x) I) F(Z)` below the local
@@ -134,10 +135,28 @@ const A: [[f64; 3]; 3] = [
 ];
 /// Error estimate `gamma0 h f(y0) + sum gamma0 DD_i Z_i` (RADAU5's DD1..3).
 const DD: [f64; 3] = [-(13.0 + 7.0 * SQ6) / 3.0, (-13.0 + 7.0 * SQ6) / 3.0, -1.0 / 3.0];
+/// RADAU5's transformation: `TI A^-1 T = diag(GAMMA, [[ALPHA, -BETA], [BETA, ALPHA]])`,
+/// `TI = T^-1` (checked in `radau_transformation`).
+#[allow(clippy::excessive_precision)]
+const T: [[f64; 3]; 3] = [
+    [9.123_239_487_089_294_279_2e-2, -0.141_255_295_020_954_208_43, -3.002_919_410_514_742_449_2e-2],
+    [0.241_717_932_707_107_018_96, 0.204_129_352_293_799_931_99, 0.382_942_112_757_261_937_79],
+    [0.966_048_182_615_092_936_19, 1.0, 0.0],
+];
+#[allow(clippy::excessive_precision)]
+const TI: [[f64; 3]; 3] = [
+    [4.325_579_890_063_155_351_0, 0.339_199_251_815_809_869_54, 0.541_770_539_935_874_871_19],
+    [-4.178_718_591_551_904_727_3, -0.327_682_820_761_062_387_08, 0.476_623_554_500_550_451_96],
+    [-0.502_872_634_945_786_875_95, 2.571_926_949_855_605_429_2, -0.596_039_204_828_224_924_97],
+];
+const GAMMA: f64 = 3.637_834_252_744_496;
+const ALPHA: f64 = 2.681_082_873_627_752;
+const BETA: f64 = 3.050_430_199_247_411;
 const SAFE: f64 = 0.9;
 const THET: f64 = 0.001;
 
-/// The real eigenvalue of `A`.
+/// The real eigenvalue of `A` (`1 / GAMMA`).
+#[cfg(test)]
 fn gamma0() -> f64 {
     (6.0 + 81f64.cbrt() - 9f64.cbrt()) / 30.0
 }
@@ -184,6 +203,72 @@ fn lu_solve(a: &DMatrix<f64>, piv: &[usize], b: &mut [f64]) {
     }
 }
 
+/// In-place complex LU with partial pivoting; real and imaginary parts in
+/// two column-major square matrices.
+fn lu_factor_c(ar: &mut DMatrix<f64>, ai: &mut DMatrix<f64>, piv: &mut [usize]) -> bool {
+    let m = ar.nrows();
+    let (r, q) = (ar.as_mut_slice(), ai.as_mut_slice());
+    for k in 0..m {
+        let mag = |i: usize| r[i + k * m].abs() + q[i + k * m].abs();
+        let p = (k..m).fold(k, |p, i| if mag(i) > mag(p) { i } else { p });
+        let amax = mag(p);
+        if !(amax > 0.0 && amax.is_finite()) {
+            return false;
+        }
+        piv[k] = p;
+        for j in 0..m {
+            r.swap(k + j * m, p + j * m);
+            q.swap(k + j * m, p + j * m);
+        }
+        let (pr, pi) = (r[k + k * m], q[k + k * m]);
+        let d = pr * pr + pi * pi;
+        let (ir, ii) = (pr / d, -pi / d);
+        for i in k + 1..m {
+            let (xr, xi) = (r[i + k * m], q[i + k * m]);
+            r[i + k * m] = xr * ir - xi * ii;
+            q[i + k * m] = xr * ii + xi * ir;
+        }
+        for j in k + 1..m {
+            let (rl, rr) = r.split_at_mut(j * m);
+            let (ql, qr) = q.split_at_mut(j * m);
+            let (rk, rj, qk, qj) = (&rl[k * m..(k + 1) * m], &mut rr[..m], &ql[k * m..(k + 1) * m], &mut qr[..m]);
+            let (br, bi) = (rj[k], qj[k]);
+            for i in k + 1..m {
+                rj[i] -= rk[i] * br - qk[i] * bi;
+                qj[i] -= rk[i] * bi + qk[i] * br;
+            }
+        }
+    }
+    true
+}
+
+fn lu_solve_c(ar: &DMatrix<f64>, ai: &DMatrix<f64>, piv: &[usize], br: &mut [f64], bi: &mut [f64]) {
+    let (m, r, q) = (ar.nrows(), ar.as_slice(), ai.as_slice());
+    for k in 0..m {
+        br.swap(k, piv[k]);
+        bi.swap(k, piv[k]);
+    }
+    for j in 0..m {
+        let (xr, xi) = (br[j], bi[j]);
+        for i in j + 1..m {
+            let (lr, li) = (r[i + j * m], q[i + j * m]);
+            br[i] -= lr * xr - li * xi;
+            bi[i] -= lr * xi + li * xr;
+        }
+    }
+    for j in (0..m).rev() {
+        let (pr, pi) = (r[j + j * m], q[j + j * m]);
+        let d = pr * pr + pi * pi;
+        let (xr, xi) = ((br[j] * pr + bi[j] * pi) / d, (bi[j] * pr - br[j] * pi) / d);
+        (br[j], bi[j]) = (xr, xi);
+        for i in 0..j {
+            let (ur, ui) = (r[i + j * m], q[i + j * m]);
+            br[i] -= ur * xr - ui * xi;
+            bi[i] -= ur * xi + ui * xr;
+        }
+    }
+}
+
 /// Radau IIA integrator; the system is passed to each call, so the caller
 /// keeps it (and may change it at an event, then `restart`).
 #[derive(Clone, Debug)]
@@ -206,9 +291,11 @@ pub struct Radau {
     jac_valid: bool,
     jac_fresh: bool,
     want_jac: bool,
-    /// LU of `I - h A (x) J` and of `I/(h gamma0) - J`, for step `lu_h`.
-    m3: DMatrix<f64>,
-    piv3: Vec<usize>,
+    /// LU of `GAMMA/h I - J` (`= I/(h gamma0) - J`, also the error filter)
+    /// and of `(ALPHA + i BETA)/h I - J` (real and imaginary parts), for step `lu_h`.
+    e2r: DMatrix<f64>,
+    e2i: DMatrix<f64>,
+    piv2: Vec<usize>,
     e1: DMatrix<f64>,
     piv1: Vec<usize>,
     lu_h: f64,
@@ -274,8 +361,9 @@ impl Radau {
             n, rtol_u, atol_u, rtol, atol, t: t0, y: y0.clone(), f0: v.clone(), h: 0.0,
             jac: DMatrix::zeros(n, n),
             jac_valid: false, jac_fresh: false, want_jac: false,
-            m3: DMatrix::zeros(3 * n, 3 * n),
-            piv3: vec![0; 3 * n],
+            e2r: DMatrix::zeros(n, n),
+            e2i: DMatrix::zeros(n, n),
+            piv2: vec![0; n],
             e1: DMatrix::zeros(n, n),
             piv1: vec![0; n],
             lu_h: f64::NAN,
@@ -378,24 +466,46 @@ impl Radau {
         Ok(())
     }
 
-    /// Factorise `I - h A (x) J` and `I/(h gamma0) - J`.
+    /// Factorise `GAMMA/h I - J` and `(ALPHA + i BETA)/h I - J`, which
+    /// together solve `(I - h A (x) J) dZ = R` (Hairer & Wanner IV.8).
     fn factor(&mut self, h: f64) -> bool {
         let n = self.n;
         self.stats.lu_decompositions += 1;
-        for bi in 0..3 {
-            for bj in 0..3 {
-                let mut b = self.m3.view_mut((bi * n, bj * n), (n, n));
-                b.copy_from(&self.jac);
-                b *= -h * A[bi][bj];
-            }
-        }
-        (0..3 * n).for_each(|i| self.m3[(i, i)] += 1.0);
         self.e1.copy_from(&self.jac);
         self.e1.neg_mut();
-        (0..n).for_each(|i| self.e1[(i, i)] += 1.0 / (h * gamma0()));
-        let ok = lu_factor(&mut self.m3, &mut self.piv3) && lu_factor(&mut self.e1, &mut self.piv1);
+        self.e2r.copy_from(&self.e1);
+        self.e2i.fill(0.0);
+        for i in 0..n {
+            self.e1[(i, i)] += GAMMA / h;
+            self.e2r[(i, i)] += ALPHA / h;
+            self.e2i[(i, i)] = BETA / h;
+        }
+        let ok = lu_factor(&mut self.e1, &mut self.piv1) && lu_factor_c(&mut self.e2r, &mut self.e2i, &mut self.piv2);
         self.lu_h = if ok { h } else { f64::NAN };
         ok
+    }
+
+    /// `dz <- (I - h A (x) J)^-1 dz` through `W = (TI (x) I) Z`:
+    /// `(Lambda/h (x) I - I (x) J) dW = (Lambda TI (x) I) R / h`, `dZ = (T (x) I) dW`.
+    fn solve(&mut self, h: f64) {
+        let n = self.n;
+        for k in 0..n {
+            let r = [self.dz[k], self.dz[n + k], self.dz[2 * n + k]];
+            let v: [f64; 3] = std::array::from_fn(|i| (TI[i][0] * r[0] + TI[i][1] * r[1] + TI[i][2] * r[2]) / h);
+            self.w3[k] = GAMMA * v[0];
+            self.w3[n + k] = ALPHA * v[1] - BETA * v[2];
+            self.w3[2 * n + k] = BETA * v[1] + ALPHA * v[2];
+        }
+        let (w1, w23) = self.w3.as_mut_slice().split_at_mut(n);
+        lu_solve(&self.e1, &self.piv1, w1);
+        let (w2, w3) = w23.split_at_mut(n);
+        lu_solve_c(&self.e2r, &self.e2i, &self.piv2, w2, w3);
+        for k in 0..n {
+            let w = [self.w3[k], self.w3[n + k], self.w3[2 * n + k]];
+            for i in 0..3 {
+                self.dz[i * n + k] = T[i][0] * w[0] + T[i][1] * w[1] + T[i][2] * w[2];
+            }
+        }
     }
 
     /// Newton on the stage increments `Z`. `Ok(iterations)`, or
@@ -436,7 +546,7 @@ impl Radau {
                 }
             }
             let (raw_ok, noise) = if pending { self.residual_ok(h) } else { (false, 0.0) };
-            lu_solve(&self.m3, &self.piv3, self.dz.as_mut_slice());
+            self.solve(h);
             let mut dyno = 0.0;
             for i in 0..3 * n {
                 dyno += (self.dz[i] / self.scal[i % n]).powi(2);
@@ -720,6 +830,29 @@ mod tests {
         let g = gamma0();
         let m = DMatrix::from_fn(3, 3, |i, j| A[i][j] - if i == j { g } else { 0.0 });
         assert!(m.determinant().abs() < 1e-15);
+    }
+
+    /// RADAU5's `T`, `TI`, `GAMMA`, `ALPHA`, `BETA` from `A`: `TI = T^-1`
+    /// and `TI A^-1 T` is the real block-diagonal form of `A^-1`.
+    #[test]
+    fn radau_transformation() {
+        let a = DMatrix::from_fn(3, 3, |i, j| A[i][j]);
+        let ainv = a.clone().try_inverse().unwrap();
+        let (t, ti) = (DMatrix::from_fn(3, 3, |i, j| T[i][j]), DMatrix::from_fn(3, 3, |i, j| TI[i][j]));
+        let lam = DMatrix::from_row_slice(3, 3, &[GAMMA, 0.0, 0.0, 0.0, ALPHA, -BETA, 0.0, BETA, ALPHA]);
+        let e_inv = (&ti * &t - DMatrix::identity(3, 3)).abs().max();
+        let e_diag = (&ti * &ainv * &t - &lam).abs().max();
+        // Eigenvalues of A^-1 from its invariants: trace, determinant, and the
+        // sum of principal 2x2 minors.
+        let m2 = |i: usize, j: usize| ainv[(i, i)] * ainv[(j, j)] - ainv[(i, j)] * ainv[(j, i)];
+        let e_eig = [
+            (ainv.trace() - (GAMMA + 2.0 * ALPHA)) / ainv.trace(),
+            (ainv.determinant() - GAMMA * (ALPHA * ALPHA + BETA * BETA)) / ainv.determinant(),
+            (m2(0, 1) + m2(0, 2) + m2(1, 2) - (2.0 * GAMMA * ALPHA + ALPHA * ALPHA + BETA * BETA)) / 60.0,
+            GAMMA * gamma0() - 1.0,
+        ];
+        eprintln!("transformation: |TI T - I| {e_inv:.1e}, |TI A^-1 T - Lambda| {e_diag:.1e}, invariants {e_eig:.1?}");
+        assert!(e_inv < 1e-14 && e_diag < 1e-14 && e_eig.iter().all(|e| e.abs() < 1e-14));
     }
 
     /// Test 1: y' = Q D Q^T y, D = -(1, 10, ..., 1e8), against the matrix exponential.
