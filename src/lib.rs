@@ -11,6 +11,7 @@ pub mod interface;
 pub mod model;
 pub mod package;
 pub mod readout;
+pub mod rotating;
 pub mod scene;
 pub mod sim;
 pub mod solve;

@@ -1,0 +1,182 @@
+//! The run's versioned byte encoding. The state is the last restart (its
+//! time, state vector and contact law), the time, the counters and the
+//! input; the decoder checks every number, the ordering of the times and
+//! the contact state against the geometry, then rebuilds the integrator at
+//! the anchor and replays its steps up to the time (the step grid depends
+//! only on the anchor), so a restored run continues bit for bit. The
+//! replayed state must reproduce the encoded one.
+
+use std::sync::Arc;
+
+use super::model::RotatingModel;
+use super::sim::{RotatingSimulation, RotatingStats};
+use super::system::{ContactState, Phase};
+use super::RotatingError;
+use crate::codec::{Reader, Writer};
+use crate::solve::radau::{Radau, RadauOptions};
+
+/// Version of the encoding below; bump on any change.
+pub const ROTATING_STATE_VERSION: u32 = 1;
+
+fn bad(m: String) -> RotatingError {
+    RotatingError::Decode(m)
+}
+
+fn num(r: &mut Reader, what: &str) -> Result<f64, RotatingError> {
+    let v = r.f64().map_err(|m| bad(format!("rotating state: {m}")))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(bad(format!("rotating state: {what} = {v}: must be finite")))
+    }
+}
+
+impl RotatingSimulation {
+    pub fn encode(&self) -> Vec<u8> {
+        let mut w = Writer(Vec::new());
+        w.u32(ROTATING_STATE_VERSION);
+        w.u32(self.model.n_modes() as u32);
+        w.u8(self.model.prescribed().is_some() as u8);
+        w.u8(self.phase.contact.code());
+        w.f64(self.time);
+        w.f64(self.anchor_time);
+        w.f64(self.phase.torque);
+        w.f64(self.phase.onset_speed);
+        w.u64(self.onsets);
+        w.f64(self.impulse_mark);
+        w.f64(self.peak_before_anchor);
+        w.f64(self.contact_start);
+        w.f64(self.impulse_at_start);
+        w.f64s(self.anchor.as_slice());
+        w.f64s(self.current.as_slice());
+        w.0
+    }
+
+    /// A run of `model` restored from [`Self::encode`]'s bytes; refused,
+    /// with a message naming the field, unless the model can be in it.
+    pub fn decode(model: Arc<RotatingModel>, bytes: &[u8]) -> Result<Self, RotatingError> {
+        let mut r = Reader::new(bytes);
+        let e = |m: String| bad(format!("rotating state: {m}"));
+        let version = r.u32().map_err(e)?;
+        if version != ROTATING_STATE_VERSION {
+            return Err(bad(format!("rotating state version {version}; this build reads version {ROTATING_STATE_VERSION}")));
+        }
+        let n = r.u32().map_err(e)? as usize;
+        let prescribed = r.u8().map_err(e)?;
+        if n != model.n_modes() || (prescribed != 0) != model.prescribed().is_some() || prescribed > 1 {
+            return Err(bad(format!(
+                "rotating state has {n} modes and drive code {prescribed}, the model {} modes and a {} hub",
+                model.n_modes(),
+                if model.prescribed().is_some() { "prescribed (code 1)" } else { "torque-driven (code 0)" }
+            )));
+        }
+        let code = r.u8().map_err(e)?;
+        let contact = ContactState::from_code(code).ok_or_else(|| bad(format!("rotating state: contact code {code} is not one of 0..=2")))?;
+        let time = num(&mut r, "time")?;
+        let anchor_time = num(&mut r, "anchor time")?;
+        let torque = num(&mut r, "torque")?;
+        let onset_speed = num(&mut r, "onset speed")?;
+        let onsets = r.u64().map_err(e)?;
+        let impulse_mark = num(&mut r, "impulse mark")?;
+        let peak_before_anchor = num(&mut r, "peak force")?;
+        let contact_start = num(&mut r, "contact start")?;
+        let impulse_at_start = num(&mut r, "impulse at the contact's start")?;
+        let phase = Phase { model: model.clone(), contact, onset_speed, torque };
+        let dim = phase.dim();
+        let anchor = nalgebra::DVector::from_vec(r.f64s(dim, "anchor state entries").map_err(e)?);
+        let current = nalgebra::DVector::from_vec(r.f64s(dim, "current state entries").map_err(e)?);
+        if r.remaining() != 0 {
+            return Err(bad(format!("rotating state: {} bytes left over after the state", r.remaining())));
+        }
+        for (what, v) in [("anchor", &anchor), ("current", &current)] {
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return Err(bad(format!("rotating state: {what}[{i}] = {}: must be finite", v[i])));
+            }
+        }
+        if anchor_time > time {
+            return Err(bad(format!("rotating state: anchor time {anchor_time} <= time {time} must hold")));
+        }
+        if onsets > 0 && contact_start > anchor_time {
+            return Err(bad(format!("rotating state: contact start {contact_start} <= anchor time {anchor_time} must hold")));
+        }
+        if onset_speed < 0.0 || peak_before_anchor < 0.0 {
+            return Err(bad(format!("rotating state: onset speed {onset_speed} and peak force {peak_before_anchor} must be >= 0")));
+        }
+        if model.prescribed().is_some() && torque != 0.0 {
+            return Err(bad(format!("rotating state: torque = {torque} on a prescribed hub: allowed value 0")));
+        }
+        if model.surface.is_none() && (contact != ContactState::Open || onsets > 0) {
+            return Err(bad("rotating state: in contact, but the model has no surface".into()));
+        }
+        let x = phase.extras();
+        let impulse = anchor[x];
+        if impulse < 0.0 || impulse_at_start > impulse * (1.0 + 1e-12) + f64::MIN_POSITIVE {
+            return Err(bad(format!(
+                "rotating state: impulse {impulse} must be >= 0 and >= the impulse at the contact's start, {impulse_at_start}"
+            )));
+        }
+        if onsets == 0 && contact != ContactState::Open {
+            return Err(bad(format!("rotating state: {contact:?} with no contact onset counted")));
+        }
+        // The contact state agrees with the penetration at the anchor and now.
+        let level = 1e-9 * model.tip_radius();
+        for (what, t, y) in [("anchor", anchor_time, &anchor), ("current state", time, &current)] {
+            let (z, zd) = phase.coords(t, y);
+            let gamma = phase.contact_point(&z, &zd).penetration;
+            let agrees = match contact {
+                ContactState::Open => gamma <= level,
+                ContactState::Pressed | ContactState::Penetrated => gamma >= -level,
+            };
+            if !agrees {
+                return Err(bad(format!("rotating state: {contact:?} with penetration {gamma:e} at the {what} (allowed level {level:e})")));
+            }
+        }
+        let mut probe = phase.clone();
+        let solver = Radau::new(&mut probe, anchor_time, &anchor, RadauOptions::default())
+            .map_err(|er| bad(format!("rotating state: the anchor cannot be integrated: {er}")))?;
+        let mut sim = RotatingSimulation {
+            model,
+            phase,
+            solver,
+            options: RadauOptions::default(),
+            anchor_time,
+            anchor: anchor.clone(),
+            step: None,
+            time: anchor_time,
+            current: anchor,
+            onsets,
+            impulse_mark,
+            peak_before_anchor,
+            peak: peak_before_anchor,
+            contact_start,
+            impulse_at_start,
+            events: Vec::new(),
+            stats: RotatingStats::default(),
+        };
+        sim.start_phase()?;
+        // Replay: the steps the run took from its anchor up to its time.
+        while sim.step.as_ref().map_or(sim.anchor_time < time, |s| s.t1 < time) {
+            sim.take_step()?;
+            if let Some((te, _)) = sim.step.as_ref().and_then(|s| s.switch) {
+                if te <= time {
+                    return Err(bad(format!("rotating state: a contact switch at t = {te} lies before the time {time} but after the anchor")));
+                }
+            }
+            let t1 = sim.step.as_ref().expect("a step").t1;
+            sim.pass_to(t1.min(time));
+        }
+        sim.pass_to(time);
+        sim.current = sim.state_at(time);
+        let scale = current.amax().max(f64::MIN_POSITIVE);
+        let off = (&sim.current - &current).amax();
+        if off > 1e-9 * scale {
+            return Err(bad(format!(
+                "rotating state: the current state is {off:e} away from the motion its anchor gives at t = {time} (scale {scale:e})"
+            )));
+        }
+        if !(impulse_mark <= sim.impulse_total() * (1.0 + 1e-9) + f64::MIN_POSITIVE && impulse_mark >= 0.0) {
+            return Err(bad(format!("rotating state: impulse mark {impulse_mark} outside [0, impulse so far {}]", sim.impulse_total())));
+        }
+        Ok(sim)
+    }
+}

@@ -1,0 +1,206 @@
+//! A validated scene turned into numbers: the beam's equations
+//! ([`RotatingBeam`]), the surface, the hub drive and the initial state.
+
+use std::f64::consts::TAU;
+
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+
+use super::spec::{HubDrive, OrderSpec, Profile, RotatingSpec};
+use super::RotatingError;
+use crate::contact::Hertz;
+use crate::structure::rotating::{Order, Plane, RotatingBeam, RotatingBeamParams};
+
+/// The plane and its law.
+#[derive(Clone, Debug)]
+pub struct Surface {
+    pub plane: Plane,
+    pub law: Hertz,
+}
+
+/// Kane, Ryan & Banerjee's spin-up profile.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpinUp {
+    pub theta0: f64,
+    pub omega_s: f64,
+    pub duration: f64,
+}
+
+impl SpinUp {
+    /// `(theta, theta', theta'')` at `t` (at rest before 0).
+    pub fn at(&self, t: f64) -> (f64, f64, f64) {
+        let (ws, tt) = (self.omega_s, self.duration);
+        let a = TAU / tt;
+        if t <= 0.0 {
+            (self.theta0, 0.0, 0.0)
+        } else if t < tt {
+            let th = ws / tt * (0.5 * t * t + ((a * t).cos() - 1.0) / (a * a));
+            (self.theta0 + th, ws / tt * (t - (a * t).sin() / a), ws / tt * (1.0 - (a * t).cos()))
+        } else {
+            (self.theta0 + 0.5 * ws * tt + ws * (t - tt), ws, 0.0)
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Drive {
+    Torque,
+    Prescribed(SpinUp),
+}
+
+#[derive(Clone, Debug)]
+pub struct RotatingModel {
+    pub spec: RotatingSpec,
+    pub beam: RotatingBeam,
+    pub surface: Option<Surface>,
+    pub drive: Drive,
+    /// The order-dependent matrices the equations use: `M - D` (or `M`),
+    /// the tip shortening `C_L` (or 0), the gravity stiffness `S` (or 0).
+    pub m_minus_d: DMatrix<f64>,
+    pub c_tip: DMatrix<f64>,
+    pub s_geo: DMatrix<f64>,
+    pub m_chol: Cholesky<f64, Dyn>,
+    /// `theta, B, theta', B'` at the start.
+    pub initial_z: DVector<f64>,
+    pub initial_zd: DVector<f64>,
+}
+
+impl RotatingModel {
+    pub fn new(spec: &RotatingSpec) -> Result<Self, RotatingError> {
+        spec.validate().map_err(RotatingError::Spec)?;
+        let n = spec.n_modes;
+        let (mu, ei) = spec.section();
+        let order = match spec.order {
+            OrderSpec::First => Order::First,
+            OrderSpec::Zeroth => Order::Zeroth,
+        };
+        let params = RotatingBeamParams {
+            length: spec.beam.length,
+            mass_per_length: mu,
+            bending_stiffness: ei,
+            hub_inertia: spec.hub_inertia,
+            hub_radius: spec.hub_radius,
+            gravity: spec.gravity,
+            modal_damping: vec![spec.modal_damping],
+            n_modes: n,
+            order,
+        };
+        let beam = RotatingBeam::new(params).map_err(|e| RotatingError::Spec(format!("rotating scene '{}': {e}", spec.name)))?;
+        let surface = match &spec.surface {
+            None => None,
+            Some(s) => Some(Surface {
+                plane: Plane::new(s.normal, s.point).map_err(|e| RotatingError::Spec(format!("rotating scene '{}': surface: {e}", spec.name)))?,
+                law: s.law.hertz().clone(),
+            }),
+        };
+        let drive = match spec.hub {
+            HubDrive::Torque => Drive::Torque,
+            HubDrive::Prescribed(Profile::SpinUp { omega_s, duration }) => Drive::Prescribed(SpinUp { theta0: spec.initial.theta, omega_s, duration }),
+        };
+        let (m_minus_d, c_tip, s_geo) = match order {
+            Order::First => (&beam.m - &beam.d, beam.c_l.clone(), beam.s.clone()),
+            Order::Zeroth => (beam.m.clone(), DMatrix::zeros(n, n), DMatrix::zeros(n, n)),
+        };
+        let m_chol = Cholesky::new(beam.m.clone()).ok_or_else(|| RotatingError::Spec("modal mass matrix not positive definite".into()))?;
+        let vec_or_zero = |v: &Vec<f64>| if v.is_empty() { DVector::zeros(n) } else { DVector::from_column_slice(v) };
+        let (b, bd) = (vec_or_zero(&spec.initial.b), vec_or_zero(&spec.initial.b_dot));
+        let mut initial_z = DVector::zeros(n + 1);
+        let mut initial_zd = DVector::zeros(n + 1);
+        initial_z[0] = spec.initial.theta;
+        initial_zd[0] = spec.initial.theta_dot;
+        initial_z.rows_mut(1, n).copy_from(&b);
+        initial_zd.rows_mut(1, n).copy_from(&bd);
+        Ok(RotatingModel { spec: spec.clone(), beam, surface, drive, m_minus_d, c_tip, s_geo, m_chol, initial_z, initial_zd })
+    }
+
+    pub fn n_modes(&self) -> usize {
+        self.beam.n_modes()
+    }
+
+    pub fn prescribed(&self) -> Option<SpinUp> {
+        match self.drive {
+            Drive::Prescribed(p) => Some(p),
+            Drive::Torque => None,
+        }
+    }
+
+    /// Shortest modal period (non-rotating), s.
+    pub fn shortest_period(&self) -> f64 {
+        TAU / self.beam.omega(self.n_modes())
+    }
+
+    /// Radius of the tip, `R + L`.
+    pub fn tip_radius(&self) -> f64 {
+        self.beam.params.hub_radius + self.beam.params.length
+    }
+
+    /// `d gap / dz` and its Hessian at `z` (see the module doc of
+    /// [`crate::structure::rotating`]): with `n' = A^T n = (l_x, l_y)`,
+    /// `X = R + L + u_L`, `Y = v_L`, `gap = l_x X + l_y Y - n . p0`.
+    pub fn gap_gradient_hessian(&self, z: &DVector<f64>, plane: &Plane) -> (DVector<f64>, DMatrix<f64>) {
+        let n = self.n_modes();
+        let b = z.rows(1, n);
+        let cb = &self.c_tip * b;
+        let x = self.tip_radius() - 0.5 * b.dot(&cb);
+        let y = self.beam.w.dot(&b);
+        let (sn, cs) = z[0].sin_cos();
+        let [nx, ny] = plane.normal;
+        let (lx, ly) = (cs * nx + sn * ny, -sn * nx + cs * ny);
+        let mut g = DVector::zeros(n + 1);
+        g[0] = ly * x - lx * y;
+        g.rows_mut(1, n).copy_from(&(&cb * (-lx) + &self.beam.w * ly));
+        let mut h = DMatrix::zeros(n + 1, n + 1);
+        h[(0, 0)] = -lx * x - ly * y;
+        let cross = &cb * (-ly) - &self.beam.w * lx;
+        h.view_mut((0, 1), (1, n)).copy_from(&cross.transpose());
+        h.view_mut((1, 0), (n, 1)).copy_from(&cross);
+        h.view_mut((1, 1), (n, n)).copy_from(&(&self.c_tip * (-lx)));
+        (g, h)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rotating::spec::RotatingSpec;
+
+    fn spec(order: &str) -> RotatingSpec {
+        RotatingSpec::from_json(&format!(
+            r#"{{ "name": "t", "beam": {{ "length": 1.2, "mass_per_length": 0.9, "bending_stiffness": 300 }},
+            "n_modes": 4, "order": "{order}", "hub_inertia": 0.3, "hub_radius": 0.1,
+            "surface": {{ "normal": [0.3, -1], "point": [1, 0.2], "law": {{ "type": "hertz", "K": 1e9 }} }} }}"#
+        ))
+        .unwrap()
+    }
+
+    #[test]
+    fn gap_gradient_and_hessian_match_finite_differences() {
+        for order in ["first", "zeroth"] {
+            let m = RotatingModel::new(&spec(order)).unwrap();
+            let plane = m.surface.as_ref().unwrap().plane;
+            let z = DVector::from_vec(vec![0.4, 0.02, -0.01, 0.004, 0.001]);
+            let (g, h) = m.gap_gradient_hessian(&z, &plane);
+            let g_ref = m.beam.contact_generalized_force(&z, &plane, 1.0);
+            assert!((&g - &g_ref).norm() < 1e-14, "{order}: {g} {g_ref}");
+            let d = 1e-6;
+            for k in 0..5 {
+                let e = DVector::from_fn(5, |i, _| if i == k { d } else { 0.0 });
+                let col = (m.gap_gradient_hessian(&(&z + &e), &plane).0 - m.gap_gradient_hessian(&(&z - &e), &plane).0) / (2.0 * d);
+                assert!((&col - h.column(k)).norm() < 1e-8 * (1.0 + col.norm()), "{order} column {k}: {col} vs {}", h.column(k));
+            }
+        }
+    }
+
+    #[test]
+    fn spin_up_profile_is_consistent() {
+        let p = SpinUp { theta0: 0.3, omega_s: 6.0, duration: 15.0 };
+        for t in [0.5, 3.0, 7.5, 14.9, 15.0, 20.0] {
+            let h = 1e-5;
+            let (a, b) = (p.at(t - h), p.at(t + h));
+            let (_, thd, thdd) = p.at(t);
+            assert!(((b.0 - a.0) / (2.0 * h) - thd).abs() < 1e-8, "theta' at {t}");
+            assert!(((b.1 - a.1) / (2.0 * h) - thdd).abs() < 1e-6, "theta'' at {t}");
+        }
+        assert_eq!(p.at(0.0), (0.3, 0.0, 0.0));
+        assert_eq!(p.at(30.0).1, 6.0);
+    }
+}

@@ -1,0 +1,571 @@
+//! One run of a rotating hub beam: the whole motion integrated by Radau IIA
+//! (the equations are nonlinear everywhere), restarted at every switch of
+//! the contact law and at every change of the torque input.
+//!
+//! **Step grid.** After a restart the integrator starts from the restart
+//! state (the anchor) with options and a first step that depend only on
+//! the anchor, and steps on its own grid (`step(sys, f64::MAX)`):
+//! communication times never shorten a step. A state asked for inside a
+//! step (an output, a switch) is one fixed Radau step from the step's start
+//! (order 5, where the collocation polynomial has order 3), so results at
+//! a given time do not depend on the communication step, and a restored
+//! run rebuilds the same steps from its anchor (`codec.rs`).
+//!
+//! **Switches** are located on each accepted step's polynomial
+//! ([`super::events`]: samples, interior minima of the gap, bisection);
+//! the first one at or before the requested time is taken: the state there
+//! is recomputed to full order, the law switched (onset: the approach
+//! speed fixes the hysteretic damping; end of push: the spring energy
+//! left is counted as dissipated), and the integration restarted.
+//!
+//! **Step cap.** Open with a surface: the shortest modal period. In
+//! contact: also a quarter of the linearised contact period
+//! `2 pi / sqrt(1.5 K sqrt(p) / m)`, `m = 1 / (g^T J^-1 g)` the tip's
+//! effective mass along the normal (`g` the gap's gradient), `p` the larger
+//! of the anchor's penetration and the deepest one a mass `m` arriving at
+//! the onset speed reaches, `(5 m v0^2 / 4 K)^(2/5)`.
+
+use std::sync::Arc;
+
+use nalgebra::{Cholesky, DVector};
+
+use super::events::{StepCurve, Watch};
+use super::model::RotatingModel;
+use super::spec::RotatingSpec;
+use super::system::{ContactPoint, ContactState, Phase};
+use super::RotatingError;
+use crate::solve::radau::{Radau, RadauOptions, Tol};
+
+/// What happened at an event.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RotatingEventKind {
+    /// The tip enters the surface at normal speed `speed` (m/s).
+    Onset { speed: f64 },
+    /// The raw force reached zero inside the surface (the damping would
+    /// pull): the push ends with `penetration` left.
+    PushEnd { penetration: f64 },
+    /// Still inside, the force turned positive again.
+    PushResumed,
+    /// The tip left the surface: the contact's peak force, duration (from
+    /// its onset) and impulse.
+    Separation { peak_force: f64, duration: f64, impulse: f64 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RotatingEvent {
+    pub time: f64,
+    pub kind: RotatingEventKind,
+}
+
+/// Work counters (not part of the state).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RotatingStats {
+    pub accepted: u64,
+    pub rejected: u64,
+    /// Accepted steps taken while pressed or penetrated.
+    pub contact_steps: u64,
+    pub restarts: u64,
+    pub events: u64,
+}
+
+/// The last accepted step: `[t0, t1]`, the state at `t0`, its first
+/// switch, and its largest force (time, value) before that switch.
+#[derive(Clone, Debug)]
+pub(super) struct Step {
+    pub t0: f64,
+    pub t1: f64,
+    pub y0: DVector<f64>,
+    pub switch: Option<(f64, Watch)>,
+    pub peak: Option<(f64, f64)>,
+}
+
+#[derive(Clone, Debug)]
+pub struct RotatingSimulation {
+    pub(super) model: Arc<RotatingModel>,
+    pub(super) phase: Phase,
+    pub(super) solver: Radau,
+    pub(super) options: RadauOptions,
+    pub(super) anchor_time: f64,
+    pub(super) anchor: DVector<f64>,
+    pub(super) step: Option<Step>,
+    pub(super) time: f64,
+    pub(super) current: DVector<f64>,
+    pub(super) onsets: u64,
+    pub(super) impulse_mark: f64,
+    /// Largest force of the current or latest contact up to the anchor, and
+    /// up to `time`.
+    pub(super) peak_before_anchor: f64,
+    pub(super) peak: f64,
+    /// Onset time and impulse total at the onset of the current or latest contact.
+    pub(super) contact_start: f64,
+    pub(super) impulse_at_start: f64,
+    pub(super) events: Vec<RotatingEvent>,
+    pub(super) stats: RotatingStats,
+}
+
+/// One Radau step from `(t0, y0)` to `t1` without error control (the
+/// state inside a step to the method's full order).
+pub(super) fn full_order_state(phase: &Phase, options: &RadauOptions, t0: f64, y0: &DVector<f64>, t1: f64) -> Option<DVector<f64>> {
+    if t1 <= t0 || t1.is_nan() || t0.is_nan() {
+        return None;
+    }
+    let mut phase = phase.clone();
+    let o = RadauOptions { h_init: Some(t1 - t0), fixed_step: true, h_max: f64::INFINITY, ..options.clone() };
+    let mut solver = Radau::new(&mut phase, t0, y0, o).ok()?;
+    solver.step(&mut phase, t1).ok()?;
+    Some(solver.y().clone())
+}
+
+impl RotatingSimulation {
+    /// A run of `spec` from its initial state at `start_time`.
+    pub fn from_spec(spec: &RotatingSpec, start_time: f64) -> Result<Self, RotatingError> {
+        Self::new(Arc::new(RotatingModel::new(spec)?), start_time)
+    }
+
+    /// A run from the model's initial state at `start_time`; a tip inside
+    /// the surface, or on it and moving in, starts in contact (an onset).
+    pub fn new(model: Arc<RotatingModel>, start_time: f64) -> Result<Self, RotatingError> {
+        if !start_time.is_finite() {
+            return Err(RotatingError::NonFiniteInput { what: "start time", value: start_time });
+        }
+        let n = model.n_modes();
+        let phase = Phase { model: model.clone(), contact: ContactState::Open, onset_speed: 0.0, torque: 0.0 };
+        let mut y = DVector::zeros(phase.dim());
+        match model.prescribed() {
+            None => {
+                y.rows_mut(0, n + 1).copy_from(&model.initial_z);
+                y.rows_mut(n + 1, n + 1).copy_from(&model.initial_zd);
+            }
+            Some(_) => {
+                y.rows_mut(0, n).copy_from(&model.initial_z.rows(1, n));
+                y.rows_mut(n, n).copy_from(&model.initial_zd.rows(1, n));
+            }
+        }
+        let options = RadauOptions::default();
+        let mut probe = phase.clone();
+        let solver = Radau::new(&mut probe, start_time, &y, options.clone()).map_err(|e| RotatingError::Integration { time: start_time, message: e.to_string() })?;
+        let mut sim = RotatingSimulation {
+            model: model.clone(),
+            phase,
+            solver,
+            options,
+            anchor_time: start_time,
+            anchor: y.clone(),
+            step: None,
+            time: start_time,
+            current: y.clone(),
+            onsets: 0,
+            impulse_mark: 0.0,
+            peak_before_anchor: 0.0,
+            peak: 0.0,
+            contact_start: start_time,
+            impulse_at_start: 0.0,
+            events: Vec::new(),
+            stats: RotatingStats::default(),
+        };
+        let mut contact = ContactState::Open;
+        if let Some(s) = &model.surface {
+            let (z, zd) = sim.phase.coords(start_time, &y);
+            let c = sim.phase.contact_point(&z, &zd);
+            if c.penetration > 0.0 || (c.penetration == 0.0 && c.rate > 0.0) {
+                sim.phase.onset_speed = c.rate.max(0.0);
+                let raw = s.law.raw_force(c.penetration, c.rate, sim.phase.onset_speed).0;
+                contact = if raw > 0.0 || c.penetration == 0.0 { ContactState::Pressed } else { ContactState::Penetrated };
+                sim.onsets = 1;
+                sim.events.push(RotatingEvent { time: start_time, kind: RotatingEventKind::Onset { speed: c.rate } });
+            }
+        }
+        sim.restart(start_time, y, contact)?;
+        Ok(sim)
+    }
+
+    /// Radau options for a phase starting at `(t, y)`: tolerances scaled by
+    /// the motion's size, the step cap (module doc).
+    fn phase_options(&self, t: f64, y: &DVector<f64>) -> RadauOptions {
+        let m = &self.model;
+        let n = m.n_modes();
+        let tol = m.spec.solver.tolerance;
+        let length = m.beam.params.length;
+        let ell = m.tip_radius();
+        let (z, zd) = self.phase.coords(t, y);
+        let mut q = z.rows(1, n).amax().max(1e-4 * length);
+        let mut v = zd.rows(1, n).amax().max(q * m.beam.omega(1));
+        let mut h_max = f64::INFINITY;
+        if let Some(s) = &m.surface {
+            h_max = m.shortest_period();
+            if self.phase.contact != ContactState::Open {
+                let c = self.phase.contact_point(&z, &zd);
+                let g = m.beam.contact_generalized_force(&z, &s.plane, 1.0);
+                let inv_mass = match m.prescribed() {
+                    None => Cholesky::new(m.beam.mass_matrix(&z)).map(|ch| g.dot(&ch.solve(&g))),
+                    Some(_) => {
+                        let gb = g.rows(1, n).into_owned();
+                        Some(gb.dot(&m.m_chol.solve(&gb)))
+                    }
+                };
+                if let Some(inv) = inv_mass.filter(|x| *x > 0.0 && x.is_finite()) {
+                    let mass = 1.0 / inv;
+                    let v0 = self.phase.onset_speed.max(c.rate.abs());
+                    let depth = (1.25 * mass * v0 * v0 / s.law.stiffness).powf(0.4);
+                    let p = c.penetration.max(depth).max(1e-9 * length);
+                    let omega_c = (1.5 * s.law.stiffness * p.sqrt() / mass).sqrt();
+                    if omega_c > 0.0 && omega_c.is_finite() {
+                        h_max = h_max.min(0.25 * std::f64::consts::TAU / omega_c);
+                    }
+                    let w_max = m.beam.w.amax().max(f64::MIN_POSITIVE);
+                    q = q.max(depth / w_max);
+                    v = v.max(v0 / w_max);
+                }
+            }
+        }
+        let dim = self.phase.dim();
+        let mut atol = DVector::from_element(dim, 1e100);
+        match m.prescribed() {
+            None => {
+                atol[0] = tol * q / ell;
+                atol.rows_mut(1, n).fill(tol * q);
+                atol[n + 1] = tol * v / ell;
+                atol.rows_mut(n + 2, n).fill(tol * v);
+            }
+            Some(_) => {
+                atol.rows_mut(0, n).fill(tol * q);
+                atol.rows_mut(n, n).fill(tol * v);
+            }
+        }
+        // Free flight reuses the Jacobian while Newton converges fast
+        // (RADAU5's rule); contact refreshes it at every step.
+        let refresh = self.phase.contact != ContactState::Open;
+        RadauOptions {
+            rtol: Tol::Scalar(tol),
+            atol: Tol::Vector(atol),
+            h_max,
+            max_steps: u64::MAX,
+            refresh_jacobian_every_step: refresh,
+            ..RadauOptions::default()
+        }
+    }
+
+    /// A new phase from `(t, y)` in `contact` (the time becomes `t`).
+    pub(super) fn restart(&mut self, t: f64, y: DVector<f64>, contact: ContactState) -> Result<(), RotatingError> {
+        self.phase.contact = contact;
+        let (z, zd) = self.phase.coords(t, &y);
+        self.peak = self.peak.max(self.phase.contact_point(&z, &zd).force);
+        self.peak_before_anchor = self.peak;
+        self.anchor_time = t;
+        self.anchor = y.clone();
+        self.time = t;
+        self.current = y;
+        self.stats.restarts += 1;
+        self.start_phase()
+    }
+
+    /// The integrator at the anchor (no step taken).
+    pub(super) fn start_phase(&mut self) -> Result<(), RotatingError> {
+        let st = self.solver.stats();
+        self.stats.rejected += st.rejected;
+        self.options = self.phase_options(self.anchor_time, &self.anchor);
+        self.step = None;
+        self.solver = Radau::new(&mut self.phase, self.anchor_time, &self.anchor, self.options.clone())
+            .map_err(|e| RotatingError::Integration { time: self.anchor_time, message: e.to_string() })?;
+        Ok(())
+    }
+
+    /// One accepted step, its first switch and its peak force.
+    pub(super) fn take_step(&mut self) -> Result<(), RotatingError> {
+        let (t0, y0) = (self.solver.t(), self.solver.y().clone());
+        let (a, b) = self
+            .solver
+            .step(&mut self.phase, f64::MAX)
+            .map_err(|e| RotatingError::Integration { time: t0, message: format!("{e} (contact {:?})", self.phase.contact) })?;
+        self.stats.accepted += 1;
+        if self.phase.contact != ContactState::Open {
+            self.stats.contact_steps += 1;
+        }
+        let curve = StepCurve { phase: &self.phase, solver: &self.solver, t0: a, t1: b, y0: &y0 };
+        let switch = curve.first_switch();
+        let mut peak = curve.peak_force(switch.map_or(b, |s| s.0));
+        if let Some((tp, fp)) = peak {
+            // The peak's value from the full-order state there.
+            if tp > a && tp < b {
+                if let Some(y) = full_order_state(&self.phase, &self.options, a, &y0, tp) {
+                    let (z, zd) = self.phase.coords(tp, &y);
+                    peak = Some((tp, self.phase.contact_point(&z, &zd).force.max(fp)));
+                }
+            }
+        }
+        self.step = Some(Step { t0: a, t1: b, y0, switch, peak });
+        Ok(())
+    }
+
+    /// The state at `t` in the last step (the anchor before the first).
+    pub(super) fn state_at(&self, t: f64) -> DVector<f64> {
+        let Some(s) = &self.step else { return self.anchor.clone() };
+        if t >= s.t1 {
+            return self.solver.y().clone();
+        }
+        if t <= s.t0 {
+            return s.y0.clone();
+        }
+        full_order_state(&self.phase, &self.options, s.t0, &s.y0, t).unwrap_or_else(|| {
+            let mut out = DVector::zeros(s.y0.len());
+            if self.solver.dense(t, &mut out).is_err() {
+                out.copy_from(self.solver.y());
+            }
+            out
+        })
+    }
+
+    /// Moves the time to `t` inside the last step (the peak force follows).
+    pub(super) fn pass_to(&mut self, t: f64) {
+        if let Some((tp, fp)) = self.step.as_ref().and_then(|s| s.peak) {
+            if tp > self.time && tp <= t {
+                self.peak = self.peak.max(fp);
+            }
+        }
+        self.time = t;
+    }
+
+    /// Advances to `t_end` through every switch on the way (including one at `t_end`).
+    pub fn advance_to(&mut self, t_end: f64) -> Result<(), RotatingError> {
+        if !t_end.is_finite() {
+            return Err(RotatingError::NonFiniteInput { what: "requested time", value: t_end });
+        }
+        if t_end < self.time {
+            return Err(RotatingError::Backwards { now: self.time, requested: t_end });
+        }
+        if t_end > self.time {
+            self.impulse_mark = self.impulse_total();
+        }
+        let mut count = 0u64;
+        let result = loop {
+            if self.step.as_ref().map_or(true, |s| s.t1 <= self.time) {
+                if self.time >= t_end {
+                    break Ok(());
+                }
+                if let Err(e) = self.take_step() {
+                    break Err(e);
+                }
+            }
+            let s = self.step.as_ref().expect("a step");
+            let (t1, switch) = (s.t1, s.switch);
+            match switch {
+                Some((te, watch)) if te <= t_end => {
+                    self.pass_to(te);
+                    count += 1;
+                    self.stats.events += 1;
+                    if count > self.model.spec.solver.max_events_per_step {
+                        self.current = self.state_at(te);
+                        return Err(RotatingError::TooManyEvents { time: te, count });
+                    }
+                    if let Err(e) = self.switch(te, watch) {
+                        break Err(e);
+                    }
+                }
+                _ if t1 <= t_end => self.pass_to(t1),
+                _ => {
+                    self.pass_to(t_end);
+                    break Ok(());
+                }
+            }
+        };
+        self.current = self.state_at(self.time);
+        result
+    }
+
+    /// The switch of `watch` at `te` (module doc).
+    fn switch(&mut self, te: f64, watch: Watch) -> Result<(), RotatingError> {
+        let mut y = self.state_at(te);
+        let (z, zd) = self.phase.coords(te, &y);
+        let c = self.phase.contact_point(&z, &zd);
+        let e = self.phase.extras();
+        let law = self.model.surface.as_ref().map(|s| s.law.clone()).expect("switches need a surface");
+        let (contact, kind) = match (self.phase.contact, watch) {
+            (ContactState::Open, Watch::Gap) => {
+                self.phase.onset_speed = c.rate.max(0.0);
+                self.onsets += 1;
+                self.contact_start = te;
+                self.impulse_at_start = y[e];
+                self.peak = 0.0;
+                (ContactState::Pressed, RotatingEventKind::Onset { speed: c.rate })
+            }
+            (ContactState::Pressed, Watch::Force) => {
+                y[e + 1] += law.stored_energy(c.penetration);
+                (ContactState::Penetrated, RotatingEventKind::PushEnd { penetration: c.penetration.max(0.0) })
+            }
+            (ContactState::Penetrated, Watch::NegatedForce) => {
+                y[e + 1] -= law.stored_energy(c.penetration);
+                (ContactState::Pressed, RotatingEventKind::PushResumed)
+            }
+            (_, _) => (
+                ContactState::Open,
+                RotatingEventKind::Separation { peak_force: self.peak, duration: te - self.contact_start, impulse: y[e] - self.impulse_at_start },
+            ),
+        };
+        self.events.push(RotatingEvent { time: te, kind });
+        self.restart(te, y, contact)
+    }
+
+    /// Changes the hub torque (N m); a change restarts the integration at
+    /// the current time. An error for a prescribed hub.
+    pub fn set_torque(&mut self, torque: f64) -> Result<(), RotatingError> {
+        if !torque.is_finite() {
+            return Err(RotatingError::NonFiniteInput { what: "torque", value: torque });
+        }
+        if self.model.prescribed().is_some() {
+            return Err(RotatingError::NotAnInput("torque: the hub's motion is prescribed (its torque is an output)".into()));
+        }
+        if torque == self.phase.torque {
+            return Ok(());
+        }
+        self.phase.torque = torque;
+        let y = self.current.clone();
+        self.restart(self.time, y, self.phase.contact)
+    }
+
+    pub fn model(&self) -> &RotatingModel {
+        &self.model
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn stats(&self) -> RotatingStats {
+        let mut s = self.stats;
+        s.rejected += self.solver.stats().rejected;
+        s
+    }
+
+    /// The events since the last call.
+    pub fn drain_events(&mut self) -> Vec<RotatingEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// The integrated state now (layout in [`super::system`]).
+    pub fn y(&self) -> &DVector<f64> {
+        &self.current
+    }
+
+    /// The last restart: its time and state.
+    pub fn anchor(&self) -> (f64, &DVector<f64>) {
+        (self.anchor_time, &self.anchor)
+    }
+
+    /// `(z, z') = ([theta, B], [theta', B'])` now.
+    pub fn coordinates(&self) -> (DVector<f64>, DVector<f64>) {
+        self.phase.coords(self.time, &self.current)
+    }
+
+    fn contact_now(&self) -> ContactPoint {
+        let (z, zd) = self.coordinates();
+        self.phase.contact_point(&z, &zd)
+    }
+
+    pub fn contact_state(&self) -> ContactState {
+        self.phase.contact
+    }
+
+    pub fn theta(&self) -> f64 {
+        self.coordinates().0[0]
+    }
+
+    pub fn theta_dot(&self) -> f64 {
+        self.coordinates().1[0]
+    }
+
+    /// Tip deflection `v_L` in the rotating frame, m.
+    pub fn tip_deflection(&self) -> f64 {
+        self.model.beam.tip_deflection(&self.coordinates().0)
+    }
+
+    /// Tip position in the fixed frame, m.
+    pub fn tip_position(&self) -> [f64; 2] {
+        self.model.beam.tip_position(&self.coordinates().0)
+    }
+
+    /// Tip velocity in the fixed frame, m/s.
+    pub fn tip_velocity(&self) -> [f64; 2] {
+        let (z, zd) = self.coordinates();
+        self.model.beam.tip_velocity(&z, &zd)
+    }
+
+    /// The force the surface pushes the tip with now, N.
+    pub fn contact_force(&self) -> f64 {
+        self.contact_now().force
+    }
+
+    /// The gap `n . (r_tip - p0)` (negative inside; 0 without a surface), m.
+    pub fn gap(&self) -> f64 {
+        -self.contact_now().penetration
+    }
+
+    /// `max(0, -gap)`, m.
+    pub fn penetration(&self) -> f64 {
+        self.contact_now().penetration.max(0.0)
+    }
+
+    /// Contact onsets since the start.
+    pub fn contacts(&self) -> u64 {
+        self.onsets
+    }
+
+    /// The largest force of the current or latest contact so far, N.
+    pub fn peak_force(&self) -> f64 {
+        self.peak
+    }
+
+    /// `int F dt` since the start, N s.
+    pub fn impulse_total(&self) -> f64 {
+        self.current[self.phase.extras()]
+    }
+
+    /// The impulse of the last advance that moved time, N s.
+    pub fn last_impulse(&self) -> f64 {
+        (self.impulse_total() - self.impulse_mark).max(0.0)
+    }
+
+    /// `int M_O dt`: the contact force's angular impulse about the axis, N m s.
+    pub fn angular_impulse_total(&self) -> f64 {
+        self.current[self.phase.extras() + 2]
+    }
+
+    /// Energy the contact dissipated (damping, and the spring energy left
+    /// at the end of a push), J.
+    pub fn dissipated_energy(&self) -> f64 {
+        self.current[self.phase.extras() + 1]
+    }
+
+    /// `2/5 K gamma^2.5` while pressed, J.
+    pub fn stored_energy(&self) -> f64 {
+        self.phase.stored_energy(&self.contact_now())
+    }
+
+    /// Bending moment at the clamp, N m.
+    pub fn root_moment(&self) -> f64 {
+        self.model.beam.root_moment(&self.coordinates().0)
+    }
+
+    /// Kinetic, strain and gravity energy of hub and beam, J.
+    pub fn structure_energy(&self) -> f64 {
+        let (z, zd) = self.coordinates();
+        self.model.beam.energy(&z, &zd)
+    }
+
+    /// Structure plus the energy stored in the contact, J.
+    pub fn total_energy(&self) -> f64 {
+        self.structure_energy() + self.stored_energy()
+    }
+
+    /// Angular momentum about the axis, `(J z')_theta`, kg m^2/s.
+    pub fn angular_momentum(&self) -> f64 {
+        let (z, zd) = self.coordinates();
+        (self.model.beam.mass_matrix(&z) * zd)[0]
+    }
+
+    /// The hub torque: the input, or what the prescribed motion needs, N m.
+    pub fn hub_torque(&self) -> f64 {
+        let (z, zd) = self.coordinates();
+        let c = self.phase.contact_point(&z, &zd);
+        self.phase.hub_torque(self.time, &z, &zd, &c)
+    }
+}

@@ -1,0 +1,636 @@
+//! The rotating hub beam's engine (`beamstop::rotating`) against
+//! independent computations: energy and angular momentum by quadrature
+//! along the beam (not from the assembled matrices), fixed-step RK4
+//! references with their own switch location, and the run's own
+//! invariances (communication step, encode/decode).
+
+use std::f64::consts::TAU;
+use std::sync::Arc;
+
+use beamstop::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
+use beamstop::solve::quadrature::for_each_node;
+use beamstop::structure::beam::{DimensionlessMode, Support};
+use beamstop::structure::rotating::Plane;
+use nalgebra::{DMatrix, DVector};
+
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+fn scene(name: &str) -> RotatingSpec {
+    RotatingSpec::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes_rotating/{name}.json")).unwrap()).unwrap()
+}
+
+/// A quadrature node: (x, weight, phi(x), phi''(x), e(x) = int_0^x phi' phi'^T).
+type Node = (f64, f64, DVector<f64>, DVector<f64>, DMatrix<f64>);
+
+/// Energy and angular momentum by quadrature along the beam: point masses
+/// `mu dx` at `A(theta) [R + x + u, v]`, `u(x) = -1/2 int_0^x v'^2` by an inner
+/// quadrature, the Lagrangian kept to second order in `B` as the model's
+/// first order does (`|r'|^2 = (R+x)^2 th'^2 + 2 (R+x) th' v' + v'^2 + v^2 th'^2 + 2 (R+x) u th'^2`).
+struct Quadrature {
+    jh: f64,
+    mu: f64,
+    ei: f64,
+    r: f64,
+    g: f64,
+    n: usize,
+    nodes: Vec<Node>,
+}
+
+impl Quadrature {
+    fn new(spec: &RotatingSpec) -> Self {
+        let (mu, ei) = spec.section();
+        let (l, n) = (spec.beam.length, spec.n_modes);
+        let modes: Vec<DimensionlessMode> = (1..=n).map(|j| DimensionlessMode::new(Support::ClampedFree, j)).collect();
+        let at = |k: usize, x: f64| DVector::from_iterator(n, modes.iter().map(|m| m.derivative(k, x / l) / l.powi(k as i32)));
+        let mut nodes = vec![];
+        for_each_node(0.0, l, 4 * n + 8, |x, wt| {
+            let mut e = DMatrix::zeros(n, n);
+            for_each_node(0.0, x, 2 * n + 4, |xi, wi| {
+                let d = at(1, xi);
+                e += &d * d.transpose() * wi;
+            });
+            nodes.push((x, wt, at(0, x), at(2, x), e));
+        });
+        Quadrature { jh: spec.hub_inertia, mu, ei, r: spec.hub_radius, g: spec.gravity, n, nodes }
+    }
+
+    /// (energy, angular momentum about the axis) at `(z, z')`.
+    fn energy_momentum(&self, z: &DVector<f64>, zd: &DVector<f64>) -> (f64, f64) {
+        let n = self.n;
+        let (b, bd) = (z.rows(1, n), zd.rows(1, n));
+        let (th, thd) = (z[0], zd[0]);
+        let (mut t, mut v, mut h) = (0.5 * self.jh * thd * thd, 0.0, self.jh * thd);
+        for (x, wt, phi, phi2, e) in &self.nodes {
+            let (vv, vd, curv) = (phi.dot(&b), phi.dot(&bd), phi2.dot(&b));
+            let u = -0.5 * b.dot(&(e * b));
+            let r = self.r + x;
+            let rd2 = r * r * thd * thd + 2.0 * r * thd * vd + vd * vd + vv * vv * thd * thd + 2.0 * r * u * thd * thd;
+            t += wt * 0.5 * self.mu * rd2;
+            // d(1/2 |r'|^2)/d theta': the momentum density's moment.
+            h += wt * self.mu * (r * r * thd + r * vd + vv * vv * thd + 2.0 * r * u * thd);
+            v += wt * (0.5 * self.ei * curv * curv + self.mu * self.g * ((r + u) * th.sin() + vv * th.cos()));
+        }
+        (t + v, h)
+    }
+}
+
+fn rk4(f: &mut impl FnMut(f64, &DVector<f64>) -> DVector<f64>, t: f64, y: &DVector<f64>, h: f64) -> DVector<f64> {
+    let k1 = f(t, y);
+    let k2 = f(t + 0.5 * h, &(y + &k1 * (0.5 * h)));
+    let k3 = f(t + 0.5 * h, &(y + &k2 * (0.5 * h)));
+    let k4 = f(t + h, &(y + &k3 * h));
+    y + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0)
+}
+
+/// (a) No damping, contact or torque; gravity on; N = 6; the hub at
+/// 100 rad/s from the quasi-static deflection. The energy by quadrature
+/// over 100 revolutions.
+#[test]
+fn a_energy_is_conserved_over_100_revolutions() {
+    let mut spec = scene("rotating_beam");
+    spec.surface = None;
+    spec.gravity = 9.81;
+    spec.solver.tolerance = 1e-10;
+    let omega = 100.0;
+    spec.initial.theta_dot = omega;
+    {
+        // Start near the forced motion (B from the centrifugally stiffened
+        // static balance under gravity) so that the run is mostly forced.
+        let m = RotatingModel::new(&spec).unwrap();
+        let keff = &m.beam.k - (&m.beam.m - &m.beam.d) * (omega * omega);
+        let b0 = keff.lu().solve(&(-&m.beam.sigma * spec.gravity)).unwrap();
+        spec.initial.b = b0.iter().copied().collect();
+    }
+    let quad = Quadrature::new(&spec);
+    let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+    let energy = |sim: &RotatingSimulation| {
+        let (z, zd) = sim.coordinates();
+        quad.energy_momentum(&z, &zd).0
+    };
+    let e0 = energy(&sim);
+    assert!((e0 - sim.total_energy()).abs() < 1e-12 * e0, "quadrature {e0} vs model {}", sim.total_energy());
+    let t_end = 100.0 * TAU / omega;
+    let (mut worst, mut vmax, mut thd_range): (f64, f64, (f64, f64)) = (0.0, 0.0, (f64::INFINITY, 0.0));
+    let clock = std::time::Instant::now();
+    for i in 1..=400 {
+        sim.advance_to(t_end * i as f64 / 400.0).unwrap();
+        worst = worst.max((energy(&sim) - e0).abs() / e0);
+        vmax = vmax.max(sim.tip_deflection().abs());
+        thd_range = (thd_range.0.min(sim.theta_dot()), thd_range.1.max(sim.theta_dot()));
+    }
+    let revs = sim.theta() / TAU;
+    eprintln!(
+        "(a) energy: {revs:.2} revolutions in {t_end:.3} s, E0 = {e0:.6} J, max relative drift {worst:.2e} (rtol 1e-10), \
+         max |v_L| = {vmax:.2e} m, theta' in [{:.4}, {:.4}], {:?}, {:.2?}",
+        thd_range.0,
+        thd_range.1,
+        sim.stats(),
+        clock.elapsed()
+    );
+    assert!((revs - 100.0).abs() < 0.05);
+    assert!(vmax > 5e-4 && thd_range.1 - thd_range.0 > 1e-3, "the beam vibrated and gravity exchanged energy with the hub");
+    assert!(worst < 1e-10, "drift {worst:e}");
+}
+
+/// (b) Kane, Ryan & Banerjee's spin-up: first order bounded, zeroth order
+/// diverging; the first-order run against an independent RK4 at t = 10 s.
+#[test]
+fn b_kane_ryan_banerjee_spin_up() {
+    let spec = scene("spin_up");
+    let model = Arc::new(RotatingModel::new(&spec).unwrap());
+    let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    let (mut vmax, mut t_max, mut late, mut at10): (f64, f64, f64, Option<DVector<f64>>) = (0.0, 0.0, 0.0, None);
+    let mut tau_max: f64 = 0.0;
+    for i in 1..=3000 {
+        let t = i as f64 * 0.01;
+        sim.advance_to(t).unwrap();
+        let v = sim.tip_deflection().abs();
+        if v > vmax {
+            (vmax, t_max) = (v, t);
+        }
+        if t > 20.0 {
+            late = late.max(v);
+        }
+        tau_max = tau_max.max(sim.hub_torque().abs());
+        if i == 1000 {
+            at10 = Some(sim.coordinates().0.rows(1, 4).into_owned());
+        }
+    }
+    // Independent RK4 of prescribed_accelerations to t = 10 s.
+    let n = 4;
+    let hub = |t: f64| model.prescribed().unwrap().at(t);
+    let mut f = |t: f64, y: &DVector<f64>| {
+        let (th, thd, thdd) = hub(t);
+        let z = DVector::from_fn(n + 1, |i, _| if i == 0 { th } else { y[i - 1] });
+        let zd = DVector::from_fn(n + 1, |i, _| if i == 0 { thd } else { y[n + i - 1] });
+        let mut bdd = DVector::zeros(n);
+        model.beam.prescribed_accelerations(&z, &zd, thdd, None, &mut bdd);
+        let mut out = DVector::zeros(2 * n);
+        out.rows_mut(0, n).copy_from(&y.rows(n, n));
+        out.rows_mut(n, n).copy_from(&bdd);
+        out
+    };
+    let (mut y, h) = (DVector::zeros(2 * n), 2.5e-4);
+    for k in 0..40_000 {
+        y = rk4(&mut f, k as f64 * h, &y, h);
+    }
+    let b_radau = at10.unwrap();
+    let diff = (&b_radau - y.rows(0, n)).amax();
+    let tip_diff = (model.beam.w.dot(&b_radau) - model.beam.w.dot(&y.rows(0, n))).abs();
+    eprintln!(
+        "(b) KRB first order: max |v_L| = {vmax:.4} m at t = {t_max:.2} s, after 20 s {late:.4} m, max |tau| = {tau_max:.1} N m; \
+         at t = 10 s vs RK4 (h = {h}): |dB| = {diff:.1e} m, |dv_L| = {tip_diff:.1e} m, {:?}",
+        sim.stats()
+    );
+    assert!(vmax > 0.3 && vmax < 0.63 && late < 0.1, "{vmax} {late}");
+    assert!(diff < 1e-6 && tip_diff < 1e-6, "{diff:e} {tip_diff:e}");
+
+    let mut zeroth = spec.clone();
+    zeroth.order = beamstop::rotating::spec::OrderSpec::Zeroth;
+    let mut sim = RotatingSimulation::from_spec(&zeroth, 0.0).unwrap();
+    let mut t_div = None;
+    for i in 1..=1500 {
+        let t = i as f64 * 0.01;
+        sim.advance_to(t).unwrap();
+        if sim.tip_deflection().abs() > 10.0 {
+            t_div = Some(t);
+            break;
+        }
+    }
+    eprintln!("(b) KRB zeroth order: |v_L| > 10 m at t = {t_div:?} s (v_L = {:.2} m), {:?}", sim.tip_deflection(), sim.stats());
+    assert!(t_div.is_some_and(|t| t < 15.0));
+}
+
+/// The seed beam 1 cm from the plane, swinging into it with some vibration.
+fn approach_spec(k: f64, n: usize) -> RotatingSpec {
+    let mut spec = scene("rotating_beam");
+    spec.n_modes = n;
+    spec.initial.theta = -0.01;
+    spec.initial.b = (0..n).map(|i| [5e-4, -1e-4, 2e-5].get(i).copied().unwrap_or(0.0)).collect();
+    if let Some(s) = spec.surface.as_mut() {
+        let beamstop::rotating::spec::SurfaceLaw::Hertz(h) = &mut s.law;
+        h.stiffness = k;
+    }
+    spec
+}
+
+/// The first contact by RK4 with its own switch location: onset and
+/// separation by bisection on the length of an RK4 substep from the last
+/// grid point. Returns (onset, separation, peak force, state at separation).
+fn rk4_first_contact(spec: &RotatingSpec, h_free: f64, h_contact: f64) -> (f64, f64, f64, DVector<f64>) {
+    let model = RotatingModel::new(spec).unwrap();
+    let beam = &model.beam;
+    let s = spec.surface.as_ref().unwrap();
+    let plane = Plane::new(s.normal, s.point).unwrap();
+    let law = s.law.hertz();
+    let (k, e) = (law.stiffness, law.restitution);
+    let m = spec.n_modes + 1;
+    let split = |y: &DVector<f64>| (y.rows(0, m).into_owned(), y.rows(m, m).into_owned());
+    let gamma = |y: &DVector<f64>| {
+        let (z, zd) = split(y);
+        (-beam.plane_gap(&z, &plane), -beam.plane_gap_rate(&z, &zd, &plane))
+    };
+    // Lankarani-Nikravesh, written out: K g^1.5 (1 + 3 (1 - e^2) / 4 g' / v0), never pulling.
+    let force = |y: &DVector<f64>, v0: Option<f64>| match v0 {
+        Some(v0) => {
+            let (g, gd) = gamma(y);
+            if g > 0.0 {
+                (k * g.powf(1.5) * (1.0 + 0.75 * (1.0 - e * e) * gd / v0)).max(0.0)
+            } else {
+                0.0
+            }
+        }
+        None => 0.0,
+    };
+    let rhs = |y: &DVector<f64>, v0: Option<f64>| {
+        let (z, zd) = split(y);
+        let qc = beam.contact_generalized_force(&z, &plane, force(y, v0));
+        let mut zdd = DVector::zeros(m);
+        beam.accelerations(&z, &zd, 0.0, Some(&qc), &mut zdd).unwrap();
+        let mut out = DVector::zeros(2 * m);
+        out.rows_mut(0, m).copy_from(&zd);
+        out.rows_mut(m, m).copy_from(&zdd);
+        out
+    };
+    let step = |y: &DVector<f64>, h: f64, v0: Option<f64>| rk4(&mut |_, y| rhs(y, v0), 0.0, y, h);
+    // The substep length at which `sign * gamma` turns positive.
+    let locate = |y: &DVector<f64>, h: f64, v0: Option<f64>, sign: f64| {
+        let (mut lo, mut hi) = (0.0, h);
+        while hi - lo > 1e-16 {
+            let mid = 0.5 * (lo + hi);
+            if sign * gamma(&step(y, mid, v0)).0 > 0.0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    };
+    let mut y = DVector::zeros(2 * m);
+    y.rows_mut(0, m).copy_from(&model.initial_z);
+    y.rows_mut(m, m).copy_from(&model.initial_zd);
+    let mut t = 0.0;
+    loop {
+        let next = step(&y, h_free, None);
+        if gamma(&next).0 > 0.0 {
+            let tau = locate(&y, h_free, None, 1.0);
+            y = step(&y, tau, None);
+            t += tau;
+            break;
+        }
+        y = next;
+        t += h_free;
+    }
+    let onset = t;
+    let v0 = Some(gamma(&y).1);
+    let mut forces = vec![];
+    loop {
+        let next = step(&y, h_contact, v0);
+        if gamma(&next).0 <= 0.0 {
+            let tau = locate(&y, h_contact, v0, -1.0);
+            y = step(&y, tau, v0);
+            t += tau;
+            break;
+        }
+        y = next;
+        t += h_contact;
+        forces.push(force(&y, v0));
+    }
+    // Parabola through the largest sample and its neighbours (equally spaced).
+    let k = (1..forces.len() - 1).fold(1, |b, i| if forces[i] > forces[b] { i } else { b });
+    let (a, b, c) = (forces[k - 1], forces[k], forces[k + 1]);
+    let denom = a - 2.0 * b + c;
+    let fmax = if denom < 0.0 { b - 0.125 * (c - a) * (c - a) / denom } else { b };
+    (onset, t, fmax, y)
+}
+
+/// The first contact of a run: (onset, separation, peak force, state at
+/// separation, the run's stats then).
+fn engine_first_contact(spec: &RotatingSpec) -> (f64, f64, f64, DVector<f64>, beamstop::rotating::RotatingStats) {
+    let mut sim = RotatingSimulation::from_spec(spec, 0.0).unwrap();
+    let mut onset = None;
+    let dt = 1e-5;
+    for i in 1.. {
+        sim.advance_to(i as f64 * dt).unwrap();
+        for e in sim.drain_events() {
+            match e.kind {
+                RotatingEventKind::Onset { .. } => onset = onset.or(Some(e.time)),
+                RotatingEventKind::Separation { peak_force, .. } => {
+                    let (ta, ya) = sim.anchor();
+                    assert_eq!(ta, e.time, "the separation is the last restart");
+                    let m = spec.n_modes + 1;
+                    return (onset.unwrap(), e.time, peak_force, ya.rows(0, 2 * m).into_owned(), sim.stats());
+                }
+                _ => {}
+            }
+        }
+        assert!(i < 100_000);
+    }
+    unreachable!()
+}
+
+/// (c) One impact of the seed beam (K = 7.6e9, Lankarani-Nikravesh e = 0.8)
+/// against an RK4 reference with its own switch location.
+#[test]
+fn c_single_impact_against_rk4() {
+    let mut spec = approach_spec(7.6e9, 6);
+    let (on_r, off_r, peak_r, y_r) = rk4_first_contact(&spec, 1e-6, 2e-8);
+    let exit_error = |y: &DVector<f64>| (y - &y_r).abs().component_div(&y_r.abs().map(|v| v.max(1e-3))).amax();
+    // The errors fall with the tolerance.
+    let mut errors = vec![];
+    for tol in [1e-9, 1e-11, 1e-12] {
+        spec.solver.tolerance = tol;
+        let (on, off, peak, y, st) = engine_first_contact(&spec);
+        errors.push(exit_error(&y));
+        eprintln!(
+            "(c) rtol {tol:e}: onset {:+.1e} s, separation {:+.1e} s, peak {:+.1e}, exit state {:.1e}; {} steps, {} in contact",
+            on - on_r,
+            off - off_r,
+            (peak - peak_r) / peak_r,
+            errors.last().unwrap(),
+            st.accepted,
+            st.contact_steps
+        );
+    }
+    assert!(errors[2] < errors[1] && errors[1] < errors[0], "{errors:?}");
+    spec.solver.tolerance = 1e-10;
+    let (on, off, peak, y, _) = engine_first_contact(&spec);
+    let rel = exit_error(&y);
+    eprintln!(
+        "(c) impact: onset {on:.12} vs RK4 {on_r:.12} s ({:.1e}), separation {off:.12} vs {off_r:.12} ({:.1e}), contact {:.6e} s, \
+         peak force {peak:.6} vs {peak_r:.6} N ({:.1e}), exit state max rel. diff {rel:.1e} (theta' {:.9} vs {:.9})",
+        on - on_r,
+        off - off_r,
+        off - on,
+        (peak - peak_r) / peak_r,
+        y[7],
+        y_r[7]
+    );
+    assert!((on - on_r).abs() < 1e-9 && (off - off_r).abs() < 1e-9, "switch times");
+    assert!(((peak - peak_r) / peak_r).abs() < 1e-6, "peak force");
+    assert!(rel < 1e-6, "exit state");
+}
+
+/// (d) The communication step changes nothing (bitwise), and a state
+/// encoded mid-contact continues bit for bit after decoding.
+#[test]
+fn d_communication_step_independence_and_encode_decode() {
+    let spec = scene("rotating_beam");
+    let model = Arc::new(RotatingModel::new(&spec).unwrap());
+    let t_end = 0.004;
+    let run = |times: &[f64]| {
+        let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+        for &t in times {
+            sim.advance_to(t).unwrap();
+        }
+        let events = sim.drain_events();
+        (sim.y().clone(), events, sim.contacts())
+    };
+    let grid = |dt: f64| {
+        let mut v: Vec<f64> = (1..).map(|i| i as f64 * dt).take_while(|&t| t < t_end).collect();
+        v.push(t_end);
+        v
+    };
+    let (ya, ea, na) = run(&grid(1e-4));
+    let (yb, eb, nb) = run(&grid(1e-5 * std::f64::consts::PI / 3.0));
+    let (yc, ec, nc) = run(&[t_end]);
+    assert!(na >= 3, "several contacts: {na}");
+    assert!(ya.iter().zip(yb.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{ya} {yb}");
+    assert!(ya.iter().zip(yc.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{ya} {yc}");
+    assert!(ea == eb && ea == ec && na == nb && na == nc);
+    // Mid-contact: the second contact starts near 0.58 ms.
+    let second = match ea.iter().filter(|e| matches!(e.kind, RotatingEventKind::Onset { .. })).nth(1) {
+        Some(e) => e.time,
+        None => panic!("a second contact"),
+    };
+    let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    let t_mid = second + 3.7e-5;
+    sim.advance_to(t_mid).unwrap();
+    assert!(sim.contact_force() > 0.0, "mid-contact");
+    let bytes = sim.encode();
+    let mut restored = RotatingSimulation::decode(model.clone(), &bytes).unwrap();
+    assert_eq!(restored.encode(), bytes);
+    assert_eq!(restored.contact_force().to_bits(), sim.contact_force().to_bits());
+    assert_eq!(restored.peak_force().to_bits(), sim.peak_force().to_bits());
+    for s in [&mut sim, &mut restored] {
+        s.drain_events();
+        s.advance_to(0.002).unwrap();
+        s.advance_to(t_end).unwrap();
+    }
+    assert!(sim.y().iter().zip(restored.y().iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(restored.y().iter().zip(ya.iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert_eq!(sim.drain_events(), restored.drain_events());
+    eprintln!(
+        "(d) {na} contacts to t = {t_end}: grids 1e-4, 1.05e-5 and one step agree bitwise; encoded at t = {t_mid:.6} ({} bytes), restored run bitwise equal",
+        bytes.len()
+    );
+    // Refusals name what is wrong.
+    let mut bad = bytes.clone();
+    bad[0] = 9;
+    let e = RotatingSimulation::decode(model.clone(), &bad).unwrap_err().to_string();
+    assert!(e.contains("version 9"), "{e}");
+    let mut bad = bytes.clone();
+    let off = 4 + 4 + 1 + 1; // the time
+    bad[off..off + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
+    let e = RotatingSimulation::decode(model.clone(), &bad).unwrap_err().to_string();
+    assert!(e.contains("time = NaN"), "{e}");
+    let mut bad = bytes.clone();
+    bad[9] = 0; // open while pressed in
+    let e = RotatingSimulation::decode(model.clone(), &bad).unwrap_err().to_string();
+    assert!(e.contains("Open with penetration") && e.contains("current state"), "{e}");
+    let e = RotatingSimulation::decode(model.clone(), &bytes[..bytes.len() - 3]).unwrap_err().to_string();
+    assert!(e.contains("truncated"), "{e}");
+    let mut bad = bytes.clone();
+    let last = bad.len() - 8 * (17 - 7); // current theta' of [theta, B(6), theta', B'(6), P, E, H]: perturbed
+    let v = f64::from_le_bytes(bad[last..last + 8].try_into().unwrap()) * (1.0 + 1e-6);
+    bad[last..last + 8].copy_from_slice(&v.to_bits().to_le_bytes());
+    let e = RotatingSimulation::decode(model.clone(), &bad).unwrap_err().to_string();
+    assert!(e.contains("away from the motion its anchor gives"), "{e}");
+}
+
+/// (e) The angular impulse of each contact about the axis equals the
+/// change of the angular momentum computed by quadrature from the states
+/// at onset and separation (no gravity, no torque).
+#[test]
+fn e_impulse_is_the_change_of_angular_momentum() {
+    let spec = scene("rotating_beam");
+    let quad = Quadrature::new(&spec);
+    let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+    let momentum = |sim: &RotatingSimulation| {
+        let (z, zd) = sim.coordinates();
+        quad.energy_momentum(&z, &zd).1
+    };
+    let h0 = momentum(&sim);
+    let mut open: Option<(f64, f64, f64)> = Some((h0, sim.angular_impulse_total(), sim.impulse_total()));
+    let (mut worst, mut checked, mut lever): (f64, usize, (f64, f64)) = (0.0, 0, (f64::INFINITY, 0.0));
+    let dt = 1e-6;
+    for i in 1..=6000 {
+        sim.advance_to(i as f64 * dt).unwrap();
+        for e in sim.drain_events() {
+            // dt is shorter than any phase: the event is the last restart.
+            assert_eq!(sim.anchor().0, e.time);
+            let at = |s: &RotatingSimulation| {
+                let (_, y) = s.anchor();
+                let m = 7;
+                let (z, zd) = (y.rows(0, m).into_owned(), y.rows(m, m).into_owned());
+                (quad.energy_momentum(&z, &zd).1, y[2 * m + 2], y[2 * m])
+            };
+            match e.kind {
+                RotatingEventKind::Onset { .. } => open = Some(at(&sim)),
+                RotatingEventKind::Separation { .. } => {
+                    let (h1, a1, p1) = at(&sim);
+                    let (h_on, a_on, p_on) = open.take().unwrap();
+                    let (dh, da) = (h1 - h_on, a1 - a_on);
+                    worst = worst.max((dh - da).abs() / dh.abs());
+                    let arm = (dh / (p1 - p_on)).abs();
+                    lever = (lever.0.min(arm), lever.1.max(arm));
+                    checked += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    let total = (momentum(&sim) - h0 - sim.angular_impulse_total()).abs() / sim.angular_impulse_total().abs();
+    eprintln!(
+        "(e) {checked} contacts: |dH - angular impulse| / |dH| <= {worst:.1e}; whole run {total:.1e}; \
+         |dH| / impulse in [{:.8}, {:.8}] m (the tip's radius, L = 1); impulse total {:.6} N s",
+        lever.0,
+        lever.1,
+        sim.impulse_total()
+    );
+    assert!(checked >= 3 && worst < 1e-6 && total < 1e-6);
+    assert!(lever.0 > 0.99 && lever.1 <= 1.0 + 1e-6, "the moment arm is the beam's length, {lever:?}");
+}
+
+/// (f) Hertz stiffness from 1e6 to 1e12: no step collapse, no NaN. With
+/// N = 2 the contact's own time scale sets the steps (with 6 modes a soft
+/// contact lasts many periods of the highest mode: printed).
+#[test]
+fn f_stiffness_sweep_without_step_collapse() {
+    for n in [2, 6] {
+        let mut per_contact = vec![];
+        for k in [1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12] {
+            let spec = approach_spec(k, n);
+            let (on, off, peak, y, stats) = engine_first_contact(&spec);
+            assert!(y.iter().all(|v| v.is_finite()) && peak.is_finite() && peak > 0.0);
+            per_contact.push(stats.contact_steps as f64);
+            eprintln!(
+                "(f) N = {n}, K = {k:.0e}: first contact {:.3e} s, peak {peak:.4e} N, {} steps in contact, {} accepted, {} rejected",
+                off - on,
+                stats.contact_steps,
+                stats.accepted,
+                stats.rejected
+            );
+        }
+        let (lo, hi) = per_contact.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &s| (a.min(s), b.max(s)));
+        eprintln!("(f) N = {n}: steps per contact from {lo} to {hi}");
+        if n == 2 {
+            assert!(hi <= 3.0 * lo, "steps per contact from {lo} to {hi}");
+        } else {
+            // Contacts shorter than the highest mode's period (K >= 1e9).
+            let (lo, hi) = per_contact[3..].iter().fold((f64::INFINITY, 0.0f64), |(a, b), &s| (a.min(s), b.max(s)));
+            assert!(hi <= 3.0 * lo, "N = 6, K >= 1e9: steps per contact from {lo} to {hi}");
+        }
+    }
+}
+
+/// (g) A grazing touch far shorter than the sample spacing is found (the
+/// search for interior minima of the gap), and a plane just out of reach
+/// is never touched. The plane is put `delta` below the highest point of
+/// the tip's path, found by fine sampling of a run without it.
+#[test]
+fn g_grazing_touch_is_not_missed() {
+    let mut spec = scene("rotating_beam");
+    spec.n_modes = 1;
+    spec.initial.b_dot = vec![0.1];
+    // No angular momentum (else the whole beam turns into the plane).
+    let m = RotatingModel::new(&spec).unwrap();
+    spec.initial.theta_dot = -m.beam.gamma[0] * 0.1 / (spec.hub_inertia + m.beam.j_b);
+    let mut free = spec.clone();
+    free.surface = None;
+    // Coarse, then fine around the highest sample (the run does not depend
+    // on the sampling).
+    let sample = |t0: f64, dt: f64, count: usize| {
+        let mut sim = RotatingSimulation::from_spec(&free, 0.0).unwrap();
+        sim.advance_to(t0).unwrap();
+        let ys: Vec<f64> = (1..=count)
+            .map(|i| {
+                sim.advance_to(t0 + i as f64 * dt).unwrap();
+                sim.tip_position()[1]
+            })
+            .collect();
+        let k = (1..ys.len() - 1).fold(1, |b, i| if ys[i] > ys[b] { i } else { b });
+        (t0 + (k + 1) as f64 * dt, ys[k - 1], ys[k], ys[k + 1], sim.stats().accepted)
+    };
+    let (t_coarse, ..) = sample(0.0, 1e-4, 1000);
+    let dt = 1e-7;
+    let (t_max, a, b, c, _) = sample(t_coarse - 2e-4, dt, 4000);
+    let steps = {
+        let mut sim = RotatingSimulation::from_spec(&free, 0.0).unwrap();
+        sim.advance_to(0.1).unwrap();
+        sim.stats().accepted
+    };
+    let y_max = b - 0.125 * (c - a) * (c - a) / (a - 2.0 * b + c);
+    let accel = -(a - 2.0 * b + c) / (dt * dt);
+    let spacing = 0.1 / steps as f64 / 8.0;
+    for (delta, want) in [(1e-11, 1), (-1e-11, 0)] {
+        let mut s = spec.clone();
+        s.surface.as_mut().unwrap().point = [1.0, y_max - delta];
+        let mut sim = RotatingSimulation::from_spec(&s, 0.0).unwrap();
+        sim.advance_to(t_max + 2e-3).unwrap();
+        let events = sim.drain_events();
+        let graze = if want > 0 { 2.0 * (2.0 * delta / accel).sqrt() } else { 0.0 };
+        eprintln!(
+            "(g) plane {delta:e} m below the tip's highest point (t = {t_max:.5} s): {} onsets, events {events:?}; \
+             graze lasts {graze:.1e} s, sample spacing ~{:.1e} s",
+            sim.contacts(),
+            spacing
+        );
+        assert_eq!(sim.contacts(), want);
+        if want > 0 {
+            assert!(graze < 0.1 * spacing, "the samples alone could not see it");
+            assert!(matches!(events.last().map(|e| &e.kind), Some(RotatingEventKind::Separation { .. })));
+        }
+    }
+}
+
+/// (h) The hub torque: a torque input does work `tau (theta - theta_0)`
+/// (no gravity, contact or damping); the torque a prescribed spin-up needs
+/// integrates to the change of the angular momentum (quadrature, J_h = 0).
+#[test]
+fn h_hub_torque_work_and_momentum() {
+    let mut spec = scene("rotating_beam");
+    spec.surface = None;
+    spec.initial.b = vec![1e-3, -2e-4, 0.0, 0.0, 0.0, 0.0];
+    let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+    let (e0, th0) = (sim.total_energy(), sim.theta());
+    let tau = 0.7;
+    sim.set_torque(tau).unwrap();
+    assert!(sim.set_torque(f64::NAN).is_err());
+    sim.advance_to(0.3).unwrap();
+    assert_eq!(sim.hub_torque(), tau);
+    let work = tau * (sim.theta() - th0);
+    let err = (sim.total_energy() - e0 - work).abs() / work;
+    eprintln!("(h) torque {tau} N m over 0.3 s: work {work:.9} J, energy gained {:.9} J, relative difference {err:.1e}", sim.total_energy() - e0);
+    assert!(err < 1e-8, "{err:e}");
+
+    let spin = scene("spin_up");
+    let quad = Quadrature::new(&spin);
+    let mut sim = RotatingSimulation::from_spec(&spin, 0.0).unwrap();
+    assert!(sim.set_torque(1.0).is_err());
+    let momentum = |s: &RotatingSimulation| {
+        let (z, zd) = s.coordinates();
+        quad.energy_momentum(&z, &zd).1
+    };
+    let (h0, dt, count) = (momentum(&sim), 1e-3, 5000);
+    let mut taus = vec![sim.hub_torque()];
+    for i in 1..=count {
+        sim.advance_to(i as f64 * dt).unwrap();
+        taus.push(sim.hub_torque());
+    }
+    // Simpson's rule.
+    let integral: f64 = (0..count / 2).map(|k| dt / 3.0 * (taus[2 * k] + 4.0 * taus[2 * k + 1] + taus[2 * k + 2])).sum();
+    let dh = momentum(&sim) - h0;
+    eprintln!("(h) KRB required torque over 5 s: integral {integral:.9} N m s, change of angular momentum {dh:.9} ({:.1e})", (integral - dh) / dh);
+    assert!(((integral - dh) / dh).abs() < 1e-6);
+}
