@@ -284,3 +284,31 @@ fn results_do_not_depend_on_the_communication_step_or_a_restore() {
     assert_eq!(restored.state().current, fine.state().current, "restored mid-contact");
     assert_eq!(restored.impulse_total(0), fine.impulse_total(0));
 }
+
+#[test]
+fn a_state_saved_after_a_discarded_step_restores() {
+    // A work cap reached inside a contact phase stops the run there; the
+    // state saved then must restore and continue like the original.
+    let law = r#"{ "type": "hertz", "K": 2e4, "damping": "lankarani_nikravesh", "e": 0.6 }"#;
+    let mut scene = beam_scene(law, 0.02, 60.0, 0.0);
+    scene.solver.max_probes_per_step = Some(2000);
+    let model = Model::build(&scene).unwrap();
+    let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+    let mut t = 0.0;
+    while sim.contact(0) != Contact::Pressed {
+        t += 1e-3;
+        sim.advance_to(t).unwrap();
+    }
+    // Far ahead: the cap stops it, possibly inside the contact phase.
+    assert!(sim.advance_to(t + 100.0).is_err());
+    let mut w = Writer(Vec::new());
+    sim.encode(&mut w);
+    let mut restored = Simulation::decode(model, vec![], &mut Reader::new(&w.0)).expect("a discarded step's state restores");
+    let start = sim.time();
+    for k in 1..=500 {
+        let target = start + k as f64 * 1e-3;
+        sim.advance_to(target).unwrap();
+        restored.advance_to(target).unwrap();
+    }
+    assert_eq!(sim.state().current, restored.state().current);
+}

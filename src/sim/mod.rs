@@ -1112,6 +1112,11 @@ impl Simulation {
     fn stop_at(&mut self, l: f64) {
         self.account(l);
         self.state.time = l;
+        // The state a restore recomputes (a full-order step), not the
+        // collocation polynomial's.
+        if let Segment::Integrated(seg) = &mut self.segment {
+            seg.settle_at(l);
+        }
         let mut current = std::mem::replace(&mut self.state.current, ModalState::zeros(0));
         self.state_at(l, &mut current);
         self.state.current = current;
