@@ -11,6 +11,9 @@ use beamstop::contact::{Contact, Law};
 use beamstop::{EventKind, Model, Scene, Simulation};
 use nalgebra::DVector;
 
+mod common;
+use common::run_states as run;
+
 /// A pinned-pinned beam in scaled units (3 modes) under a distributed
 /// harmonic load, with a Hertz stop at `x = 0.4` on the + side.
 fn beam_scene(law: &str, zeta: f64, amplitude: f64, qd0: f64) -> Scene {
@@ -122,17 +125,6 @@ fn rk4_reference(model: &Model, times: &[f64], h: f64) -> (Vec<DVector<f64>>, us
         out.push(y.clone());
     }
     (out, onsets)
-}
-
-fn run(model: Model, times: &[f64]) -> (Vec<DVector<f64>>, Simulation) {
-    let mut sim = Simulation::new(model, 0.0).unwrap();
-    let mut out = Vec::new();
-    for &t in times {
-        sim.advance_to(t).unwrap();
-        let c = sim.current();
-        out.push(DVector::from_iterator(2 * c.q.len(), c.q.iter().chain(c.qd.iter()).copied()));
-    }
-    (out, sim)
 }
 
 #[test]

@@ -330,8 +330,9 @@ impl RotatingBeam {
         let (b, bd) = (self.b(z), self.b(zd));
         let (thd, g) = (zd[0], self.params.gravity);
         let (sn, cs) = z[0].sin_cos();
-        let mut zdd = DVector::zeros(n + 1);
-        self.accelerations(z, zd, torque, None, &mut zdd)?;
+        // One factorisation of J serves z'' and the Jacobian.
+        let chol = Cholesky::new(self.mass_matrix(z)).ok_or("rotating beam: J(z) is not positive definite")?;
+        let zdd = chol.solve(&self.generalized_forces(z, zd, torque));
         let mdb = &self.m_minus_d * &b;
         let mdbd = &self.m_minus_d * &bd;
         let sb = &self.s_geo * &b;
@@ -348,7 +349,6 @@ impl RotatingBeam {
         dq.view_mut((1, 1), (n, n)).copy_from(&db_db);
         dq.view_mut((1, n + 1), (n, 1)).copy_from(&(&mdb * (2.0 * thd)));
         dq.view_mut((1, n + 2), (n, n)).copy_from(&(-&self.damping));
-        let chol = Cholesky::new(self.mass_matrix(z)).ok_or("rotating beam: J(z) is not positive definite")?;
         Ok(chol.solve(&dq))
     }
 

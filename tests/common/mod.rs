@@ -20,3 +20,16 @@ pub fn impacts(sim: &mut Simulation) -> Vec<(f64, f64)> {
         })
         .collect()
 }
+
+/// Runs `model` from t = 0 through `times`, returning the modal state
+/// `[q; q']` at each and the simulation at the end.
+pub fn run_states(model: beamstop::Model, times: &[f64]) -> (Vec<nalgebra::DVector<f64>>, Simulation) {
+    let mut sim = Simulation::new(model, 0.0).unwrap();
+    let mut out = Vec::new();
+    for &t in times {
+        sim.advance_to(t).unwrap();
+        let c = sim.current();
+        out.push(nalgebra::DVector::from_iterator(2 * c.q.len(), c.q.iter().chain(c.qd.iter()).copied()));
+    }
+    (out, sim)
+}
