@@ -102,9 +102,11 @@ impl ParamKey {
     }
 }
 
+/// A parameter of a scene; `K` says where its value lives (the modal
+/// scene's [`ParamKey`] by default).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Parameter {
-    pub key: ParamKey,
+pub struct Parameter<K = ParamKey> {
+    pub key: K,
     pub name: String,
     /// Where the value sits in the scene file, for error messages.
     pub scene_path: String,
@@ -122,8 +124,8 @@ pub enum InputKey {
 }
 
 #[derive(Clone, Debug, PartialEq)]
-pub struct Input {
-    pub key: InputKey,
+pub struct Input<K = InputKey> {
+    pub key: K,
     pub name: String,
     pub description: String,
     pub unit: Unit,
@@ -163,14 +165,36 @@ pub enum OutputType {
 }
 
 #[derive(Clone, Debug, PartialEq)]
-pub struct Output {
-    pub key: OutputKey,
+pub struct Output<K = OutputKey> {
+    pub key: K,
     pub name: String,
     pub description: String,
     pub unit: Unit,
     pub kind: OutputType,
     /// Changes only at events.
     pub discrete: bool,
+}
+
+impl<K> Parameter<K> {
+    /// The same parameter with its key wrapped (for a table of several scene kinds).
+    pub fn map_key<L>(self, f: impl FnOnce(K) -> L) -> Parameter<L> {
+        let Parameter { key, name, scene_path, description, unit, range, tunable } = self;
+        Parameter { key: f(key), name, scene_path, description, unit, range, tunable }
+    }
+}
+
+impl<K> Input<K> {
+    pub fn map_key<L>(self, f: impl FnOnce(K) -> L) -> Input<L> {
+        let Input { key, name, description, unit, range } = self;
+        Input { key: f(key), name, description, unit, range }
+    }
+}
+
+impl<K> Output<K> {
+    pub fn map_key<L>(self, f: impl FnOnce(K) -> L) -> Output<L> {
+        let Output { key, name, description, unit, kind, discrete } = self;
+        Output { key: f(key), name, description, unit, kind, discrete }
+    }
 }
 
 /// A variable's name: the element's rename if it has one, else `prefix.key`.

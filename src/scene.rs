@@ -375,6 +375,18 @@ impl fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
+/// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from the SHA-256 of the crate
+/// version and a scene's canonical text.
+pub fn guid_of(canonical: &str) -> String {
+    let mut hasher = Sha256::new();
+    hasher.update(env!("CARGO_PKG_VERSION").as_bytes());
+    hasher.update([0u8]);
+    hasher.update(canonical.as_bytes());
+    let d = hasher.finalize();
+    let hex: String = d.iter().take(16).map(|b| format!("{b:02x}")).collect();
+    format!("{{{}-{}-{}-{}-{}}}", &hex[0..8], &hex[8..12], &hex[12..16], &hex[16..20], &hex[20..32])
+}
+
 /// An allowed interval for a real value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Range {
@@ -475,13 +487,7 @@ impl Scene {
     /// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from the SHA-256 of the canonical
     /// scene and the crate version.
     pub fn guid(&self) -> String {
-        let mut hasher = Sha256::new();
-        hasher.update(env!("CARGO_PKG_VERSION").as_bytes());
-        hasher.update([0u8]);
-        hasher.update(self.canonical_json().as_bytes());
-        let d = hasher.finalize();
-        let hex: String = d.iter().take(16).map(|b| format!("{b:02x}")).collect();
-        format!("{{{}-{}-{}-{}-{}}}", &hex[0..8], &hex[8..12], &hex[12..16], &hex[16..20], &hex[20..32])
+        guid_of(&self.canonical_json())
     }
 
     pub fn n_modes(&self) -> usize {

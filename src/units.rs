@@ -19,6 +19,9 @@ pub enum Unit {
     NewtonSecond,
     /// Viscous damping per unit length, N s / m^2.
     NewtonSecondPerMetre2,
+    Radian,
+    /// Moment of inertia, kg m^2.
+    KilogramMetre2,
 }
 
 impl Unit {
@@ -38,6 +41,8 @@ impl Unit {
             Unit::NewtonSecondPerMetre => "N.s/m",
             Unit::NewtonSecond => "N.s",
             Unit::NewtonSecondPerMetre2 => "N.s/m2",
+            Unit::Radian => "rad",
+            Unit::KilogramMetre2 => "kg.m2",
         }
     }
 
@@ -57,6 +62,8 @@ impl Unit {
             Unit::NewtonSecondPerMetre => [1, 0, -1, 0],
             Unit::NewtonSecond => [1, 1, -1, 0],
             Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
+            Unit::Radian => [0, 0, 0, 1],
+            Unit::KilogramMetre2 => [1, 2, 0, 0],
         })
     }
 }

@@ -16,7 +16,7 @@ use nalgebra::{DMatrix, DVector};
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 fn scene(name: &str) -> RotatingSpec {
-    RotatingSpec::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes_rotating/{name}.json")).unwrap()).unwrap()
+    RotatingSpec::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes/{name}.json")).unwrap()).unwrap()
 }
 
 /// A quadrature node: (x, weight, phi(x), phi''(x), e(x) = int_0^x phi' phi'^T).

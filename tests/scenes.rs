@@ -3,7 +3,7 @@
 //! committed modelDescription.xml files are what the generator produces.
 
 use beamstop::fmi2::description::model_description;
-use beamstop::Scene;
+use beamstop::{Component, Scene};
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -19,8 +19,8 @@ fn error_of(text: &str) -> String {
 fn committed_model_descriptions_are_current() {
     for entry in std::fs::read_dir(format!("{ROOT}/scenes")).unwrap() {
         let path = entry.unwrap().path();
-        let scene = Scene::from_json(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        let committed_path = format!("{ROOT}/modelDescription/{}.xml", scene.name);
+        let scene = Component::from_json(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let committed_path = format!("{ROOT}/modelDescription/{}.xml", scene.name());
         let committed = std::fs::read_to_string(&committed_path).unwrap_or_default();
         assert!(
             committed == model_description(&scene),

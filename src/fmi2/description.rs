@@ -5,7 +5,7 @@
 
 use std::fmt::Write;
 
-use crate::scene::Scene;
+use crate::component::Component;
 
 use super::logging::CATEGORIES;
 use crate::interface::Unit;
@@ -22,16 +22,16 @@ fn num(x: f64) -> String {
     s.strip_suffix(".0").map(str::to_string).unwrap_or(s)
 }
 
-pub fn model_description(scene: &Scene) -> String {
+pub fn model_description(scene: &Component) -> String {
     let table = VariableTable::new(scene);
     let mut x = String::new();
-    let id = &scene.name;
+    let id = scene.name();
     let _ = writeln!(x, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         x,
         r#"<fmiModelDescription fmiVersion="2.0" modelName="{id}" guid="{}" description="{}" generationTool="beamstop {}" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
         scene.guid(),
-        escape(&scene.description),
+        escape(scene.description()),
         env!("CARGO_PKG_VERSION"),
     );
     let _ = writeln!(
@@ -62,7 +62,7 @@ pub fn model_description(scene: &Scene) -> String {
         let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(description));
     }
     let _ = writeln!(x, "  </LogCategories>");
-    let e = &scene.experiment;
+    let e = scene.experiment();
     let _ = writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, num(e.start), num(e.stop), num(e.step));
     let _ = writeln!(x, "  <ModelVariables>");
     for v in &table.variables {

@@ -7,10 +7,8 @@
 
 use std::path::Path;
 
-use crate::readout::{self, Value};
-use crate::model::Model;
-use crate::scene::Scene;
-use crate::sim::{SimError, Simulation};
+use crate::component::{Component, Run};
+use crate::readout::Value;
 
 use super::logging::Logger;
 use super::state_machine::{Function, ModelState};
@@ -26,7 +24,7 @@ pub struct Snapshot {
     pub inputs: Vec<f64>,
     pub start_time: f64,
     pub stop_time: Option<f64>,
-    pub sim: Option<Simulation>,
+    pub sim: Option<Run>,
     pub last_successful_time: f64,
     pub terminated: bool,
 }
@@ -35,19 +33,19 @@ pub struct Instance {
     pub logger: Logger,
     guid: String,
     /// The scene as packaged: the start values.
-    packaged: Scene,
+    packaged: Component,
     /// The scene with the current parameter values.
-    scene: Scene,
+    scene: Component,
     table: VariableTable,
     inputs: Vec<f64>,
     machine: ModelState,
     start_time: f64,
     stop_time: Option<f64>,
-    sim: Option<Simulation>,
+    sim: Option<Run>,
     /// In initialization mode, a simulation built from the current values
     /// to answer fmi2GetReal on outputs, or why it cannot be built (kept so
     /// that a failure is not recomputed at every read); cleared by any set.
-    provisional: Option<Result<Simulation, String>>,
+    provisional: Option<Result<Run, String>>,
     last_successful_time: f64,
     terminated: bool,
 }
@@ -69,7 +67,7 @@ impl Instance {
             Ok(t) => t,
             Err(e) => return Err((logger, format!("fmi2Instantiate: cannot read the scene {}: {e}", file.display()))),
         };
-        let scene = match Scene::from_json(&text) {
+        let scene = match Component::from_json(&text) {
             Ok(s) => s,
             Err(e) => return Err((logger, format!("fmi2Instantiate: invalid scene {}: {e}", file.display()))),
         };
@@ -165,10 +163,8 @@ impl Instance {
         Ok(())
     }
 
-    fn build_simulation(&self) -> Result<Simulation, String> {
-        let model = Model::build(&self.scene).map_err(|e| e.0)?;
-        let mut sim = Simulation::new(model, self.start_time).map_err(|e| e.to_string())?;
-        sim.set_inputs(&self.inputs).map_err(|e| e.to_string())?;
+    fn build_simulation(&self) -> Result<Run, String> {
+        let mut sim = self.scene.start(self.start_time, &self.inputs)?;
         sim.set_event_recording(self.logger.wants("logEvents"));
         Ok(sim)
     }
@@ -238,7 +234,7 @@ impl Instance {
     }
 
     /// The simulation that answers output reads in this state.
-    fn reading_simulation(&mut self, f: Function) -> CallResult<&Simulation> {
+    fn reading_simulation(&mut self, f: Function) -> CallResult<&Run> {
         if self.machine == ModelState::InitializationMode {
             if self.provisional.is_none() {
                 self.provisional = Some(self.build_simulation());
@@ -258,11 +254,11 @@ impl Instance {
     fn read(&mut self, f: Function, vr: u32, ty: VarType) -> CallResult<Value> {
         let binding = self.variable(f, vr, ty)?.binding;
         Ok(match binding {
-            Binding::Parameter(i) => Value::Real(self.table.parameters[i].key.get(&self.scene)),
+            Binding::Parameter(i) => Value::Real(self.scene.get(self.table.parameters[i].key)),
             Binding::Input(i) => Value::Real(self.inputs[i]),
             Binding::Output(i) => {
                 let key = self.table.outputs[i].key;
-                readout::evaluate(key, self.reading_simulation(f)?)
+                self.reading_simulation(f)?.evaluate(key)
             }
         })
     }
@@ -326,13 +322,13 @@ impl Instance {
                             "fmi2SetReal: '{}' = {value:?}: '{}' is a fixed parameter, settable only before fmi2ExitInitializationMode (or after fmi2Reset); it stays {}",
                             p.name,
                             p.name,
-                            p.key.get(&self.scene)
+                            self.scene.get(p.key)
                         )));
                     }
                     if let Err(m) = p.range.check(&format!("'{}'", p.name), *value) {
                         return Err(self.fail(&format!("fmi2SetReal: {m}")));
                     }
-                    p.key.set(&mut scene, *value);
+                    scene.set(p.key, *value);
                     parameters_changed = true;
                 }
                 Binding::Input(i) => {
@@ -359,12 +355,8 @@ impl Instance {
             Some(sim) if parameters_changed || inputs_changed => {
                 // Applied to a copy first: a refused change leaves the run as it was.
                 let mut updated = sim.clone();
-                let model_applied = if parameters_changed {
-                    Model::build(&scene).map_err(|e| e.to_string()).and_then(|m| updated.set_model(m).map_err(|e| e.to_string()))
-                } else {
-                    Ok(())
-                };
-                if let Err(e) = model_applied.and_then(|()| updated.set_inputs(&inputs).map_err(|e| e.to_string())) {
+                let model_applied = if parameters_changed { scene.retune(&mut updated) } else { Ok(()) };
+                if let Err(e) = model_applied.and_then(|()| updated.set_inputs(&inputs)) {
                     return Err(self.fail(&format!("fmi2SetReal: {e}")));
                 }
                 let events = updated.drain_events();
@@ -401,7 +393,7 @@ impl Instance {
                 now.abs().max(f64::MIN_POSITIVE) * f64::EPSILON
             )));
         }
-        let period = sim.model().shortest_period();
+        let period = sim.shortest_period();
         let resolution = target.abs() * f64::EPSILON;
         if resolution > MAX_TIME_RESOLUTION * period {
             return Err(self.fail(&format!(
@@ -423,27 +415,25 @@ impl Instance {
                 self.last_successful_time = target;
                 Ok(())
             }
-            Err(e @ (SimError::TooManyEvents { .. } | SimError::TooMuchWork { .. })) => {
+            Err(e) if e.recoverable => {
                 self.last_successful_time = reached;
                 self.machine = ModelState::StepFailed;
-                self.logger.status(Status::Discard, &format!("fmi2DoStep: {e}; the step was computed up to t = {reached}"));
+                self.logger.status(Status::Discard, &format!("fmi2DoStep: {}; the step was computed up to t = {reached}", e.message));
                 Err(Status::Discard)
             }
             Err(e) => {
                 self.machine = ModelState::Error;
-                Err(self.fail(&format!("fmi2DoStep: {e}")))
+                Err(self.fail(&format!("fmi2DoStep: {}", e.message)))
             }
         }
     }
 
-    fn log_events(&self, events: &[crate::sim::Event]) {
-        if events.is_empty() || !self.logger.wants("logEvents") {
+    fn log_events(&self, events: &[String]) {
+        if !self.logger.wants("logEvents") {
             return;
         }
-        let Some(sim) = self.sim.as_ref().or(self.provisional.as_ref().and_then(|p| p.as_ref().ok())) else { return };
-        for e in events {
-            let text = e.describe(sim.model());
-            self.logger.category("logEvents", &text);
+        for text in events {
+            self.logger.category("logEvents", text);
         }
     }
 
@@ -458,7 +448,7 @@ impl Instance {
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
             machine: self.machine,
-            parameters: self.table.parameters.iter().map(|p| p.key.get(&self.scene)).collect(),
+            parameters: self.table.parameters.iter().map(|p| self.scene.get(p.key)).collect(),
             inputs: self.inputs.clone(),
             start_time: self.start_time,
             stop_time: self.stop_time,
@@ -471,7 +461,7 @@ impl Instance {
     pub fn restore(&mut self, s: &Snapshot) {
         let mut scene = self.packaged.clone();
         for (p, v) in self.table.parameters.iter().zip(&s.parameters) {
-            p.key.set(&mut scene, *v);
+            scene.set(p.key, *v);
         }
         self.scene = scene;
         self.machine = s.machine;
@@ -487,10 +477,10 @@ impl Instance {
 
     /// The packaged scene with the given parameter values (for restoring
     /// serialized states).
-    pub fn scene_with(&self, parameters: &[f64]) -> Scene {
+    pub fn scene_with(&self, parameters: &[f64]) -> Component {
         let mut scene = self.packaged.clone();
         for (p, v) in self.table.parameters.iter().zip(parameters) {
-            p.key.set(&mut scene, *v);
+            scene.set(p.key, *v);
         }
         scene
     }

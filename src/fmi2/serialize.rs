@@ -8,8 +8,6 @@
 //! restored instance continues bit for bit like the original.
 
 use crate::codec::{Reader, Writer};
-use crate::model::Model;
-use crate::sim::Simulation;
 
 use super::instance::{Instance, Snapshot};
 use super::state_machine::ModelState;
@@ -102,8 +100,7 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     let scene = instance.scene_with(&parameters);
     scene.validate().map_err(|e| format!("serialized state: parameters: {e}"))?;
     let sim = if has_sim {
-        let model = Model::build(&scene).map_err(|e| format!("serialized state: parameters: {e}"))?;
-        let sim = Simulation::decode(model, inputs.clone(), &mut r)?;
+        let sim = scene.decode(&inputs, &mut r)?;
         if sim.time() < start_time {
             return Err(format!("serialized state: simulation time {} before the start time {start_time}", sim.time()));
         }

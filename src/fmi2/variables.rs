@@ -2,8 +2,8 @@
 //! value references, causality, variability, start values. One table
 //! serves the instance (get/set) and the modelDescription.xml.
 
-use crate::interface::{self, Input, Output, OutputType, Parameter, Unit};
-use crate::scene::Scene;
+use crate::component::{AnyInput, AnyOutput, AnyParam, Component};
+use crate::interface::{Input, Output, OutputType, Parameter, Unit};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum VarType {
@@ -64,18 +64,18 @@ pub struct Variable {
 /// The interface of a scene, with its variables numbered by value reference.
 #[derive(Clone, Debug)]
 pub struct VariableTable {
-    pub parameters: Vec<Parameter>,
-    pub inputs: Vec<Input>,
-    pub outputs: Vec<Output>,
+    pub parameters: Vec<Parameter<AnyParam>>,
+    pub inputs: Vec<Input<AnyInput>>,
+    pub outputs: Vec<Output<AnyOutput>>,
     /// Indexed by value reference.
     pub variables: Vec<Variable>,
 }
 
 impl VariableTable {
-    pub fn new(scene: &Scene) -> Self {
-        let parameters = interface::parameters(scene);
-        let inputs = interface::inputs(scene);
-        let outputs = interface::outputs(scene);
+    pub fn new(scene: &Component) -> Self {
+        let parameters = scene.parameters();
+        let inputs = scene.inputs();
+        let outputs = scene.outputs();
         let mut variables = Vec::new();
         let finite = |x: f64| if x.is_finite() { Some(x) } else { None };
         for (i, p) in parameters.iter().enumerate() {
@@ -87,7 +87,7 @@ impl VariableTable {
                 ty: VarType::Real,
                 causality: Causality::Parameter,
                 variability: if p.tunable { Variability::Tunable } else { Variability::Fixed },
-                start: Some(p.key.get(scene)),
+                start: Some(scene.get(p.key)),
                 // FMI bounds are inclusive: an open end becomes the next double inside.
                 min: finite(p.range.min).map(|m| if p.range.min_open { m.next_up() } else { m }),
                 max: finite(p.range.max).map(|m| if p.range.max_open { m.next_down() } else { m }),

@@ -9,7 +9,7 @@
 use std::sync::Arc;
 
 use super::model::RotatingModel;
-use super::sim::{RotatingSimulation, RotatingStats};
+use super::sim::{RotatingSimulation, RotatingStats, REANCHOR_AFTER};
 use super::system::{ContactState, Phase};
 use super::RotatingError;
 use crate::codec::{Reader, Writer};
@@ -152,10 +152,16 @@ impl RotatingSimulation {
             impulse_at_start,
             events: Vec::new(),
             stats: RotatingStats::default(),
+            steps_since_anchor: 0,
         };
         sim.start_phase()?;
         // Replay: the steps the run took from its anchor up to its time.
         while sim.step.as_ref().map_or(sim.anchor_time < time, |s| s.t1 < time) {
+            if sim.steps_since_anchor >= REANCHOR_AFTER {
+                return Err(bad(format!(
+                    "rotating state: the time {time} lies more than {REANCHOR_AFTER} integration steps after the anchor {anchor_time}"
+                )));
+            }
             sim.take_step()?;
             if let Some((te, _)) = sim.step.as_ref().and_then(|s| s.switch) {
                 if te <= time {

@@ -10,7 +10,8 @@
 //! - [`events`]: the switches of the contact law inside a step;
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
 //!   outputs;
-//! - [`codec`]: the run's versioned encoding, replayed on decode.
+//! - [`codec`]: the run's versioned encoding, replayed on decode;
+//! - [`interface`]: the scene's parameters, input and outputs.
 //!
 //! Unlike the modal simulation ([`crate::sim`]), nothing here is closed
 //! form: the rotating beam is nonlinear everywhere, so the whole motion is
@@ -20,6 +21,7 @@ use std::fmt;
 
 pub mod codec;
 pub mod events;
+pub mod interface;
 pub mod model;
 pub mod sim;
 pub mod spec;
@@ -46,6 +48,8 @@ pub enum RotatingError {
     Integration { time: f64, message: String },
     /// More switches than `solver.max_events_per_step` within one advance.
     TooManyEvents { time: f64, count: u64 },
+    /// More integration steps than `solver.max_steps_per_step` within one advance.
+    TooMuchWork { time: f64, steps: u64 },
     /// A serialized state is refused (the message names the field).
     Decode(String),
 }
@@ -65,6 +69,11 @@ impl fmt::Display for RotatingError {
             RotatingError::TooManyEvents { time, count } => {
                 write!(f, "{count} contact switches within one step near t = {time}: raise solver.max_events_per_step")
             }
+            RotatingError::TooMuchWork { time, steps } => write!(
+                f,
+                "{steps} integration steps within one communication step, stopped at t = {time}: take shorter \
+                 communication steps or raise solver.max_steps_per_step"
+            ),
         }
     }
 }

@@ -18,6 +18,10 @@
 //! speed fixes the hysteretic damping; end of push: the spring energy
 //! left is counted as dissipated), and the integration restarted.
 //!
+//! **Re-anchoring.** After [`REANCHOR_AFTER`] steps without a switch the
+//! run restarts from the end of its last step, so a restored state replays
+//! at most that many steps.
+//!
 //! **Step cap.** Open with a surface: the shortest modal period. In
 //! contact: also a quarter of the linearised contact period
 //! `2 pi / sqrt(1.5 K sqrt(p) / m)`, `m = 1 / (g^T J^-1 g)` the tip's
@@ -55,6 +59,23 @@ pub enum RotatingEventKind {
 pub struct RotatingEvent {
     pub time: f64,
     pub kind: RotatingEventKind,
+}
+
+impl RotatingEvent {
+    /// One line for a log.
+    pub fn describe(&self) -> String {
+        let t = self.time;
+        match self.kind {
+            RotatingEventKind::Onset { speed } => format!("t = {t:.17}: the tip strikes the surface at {speed:e} m/s"),
+            RotatingEventKind::PushEnd { penetration } => {
+                format!("t = {t:.17}: the contact force reaches zero {penetration:e} m inside the surface")
+            }
+            RotatingEventKind::PushResumed => format!("t = {t:.17}: the surface pushes again"),
+            RotatingEventKind::Separation { peak_force, duration, impulse } => format!(
+                "t = {t:.17}: the tip leaves the surface (peak force {peak_force:e} N, contact {duration:e} s, impulse {impulse:e} N s)"
+            ),
+        }
+    }
 }
 
 /// Work counters (not part of the state).
@@ -101,7 +122,15 @@ pub struct RotatingSimulation {
     pub(super) impulse_at_start: f64,
     pub(super) events: Vec<RotatingEvent>,
     pub(super) stats: RotatingStats,
+    /// Accepted steps since the anchor (bounds the replay on decode).
+    pub(super) steps_since_anchor: u64,
 }
+
+/// After this many accepted steps without a switch the run restarts from
+/// the end of its last step (a new anchor): a decode never replays more.
+/// The count follows the step sequence alone, so results stay independent
+/// of the communication step.
+pub const REANCHOR_AFTER: u64 = 2000;
 
 /// One Radau step from `(t0, y0)` to `t1` without error control (the
 /// state inside a step to the method's full order).
@@ -162,6 +191,7 @@ impl RotatingSimulation {
             impulse_at_start: 0.0,
             events: Vec::new(),
             stats: RotatingStats::default(),
+            steps_since_anchor: 0,
         };
         let mut contact = ContactState::Open;
         if let Some(s) = &model.surface {
@@ -256,6 +286,7 @@ impl RotatingSimulation {
         self.time = t;
         self.current = y;
         self.stats.restarts += 1;
+        self.steps_since_anchor = 0;
         self.start_phase()
     }
 
@@ -278,6 +309,7 @@ impl RotatingSimulation {
             .step(&mut self.phase, f64::MAX)
             .map_err(|e| RotatingError::Integration { time: t0, message: format!("{e} (contact {:?})", self.phase.contact) })?;
         self.stats.accepted += 1;
+        self.steps_since_anchor += 1;
         if self.phase.contact != ContactState::Open {
             self.stats.contact_steps += 1;
         }
@@ -337,10 +369,21 @@ impl RotatingSimulation {
             self.impulse_mark = self.impulse_total();
         }
         let mut count = 0u64;
+        let mut steps = 0u64;
         let result = loop {
             if self.step.as_ref().map_or(true, |s| s.t1 <= self.time) {
                 if self.time >= t_end {
                     break Ok(());
+                }
+                steps += 1;
+                if steps > self.model.spec.solver.max_steps_per_step {
+                    break Err(RotatingError::TooMuchWork { time: self.time, steps: steps - 1 });
+                }
+                if self.steps_since_anchor >= REANCHOR_AFTER {
+                    let (t, y) = (self.solver.t(), self.solver.y().clone());
+                    if let Err(e) = self.restart(t, y, self.phase.contact) {
+                        break Err(e);
+                    }
                 }
                 if let Err(e) = self.take_step() {
                     break Err(e);
@@ -420,6 +463,11 @@ impl RotatingSimulation {
         self.phase.torque = torque;
         let y = self.current.clone();
         self.restart(self.time, y, self.phase.contact)
+    }
+
+    /// The hub torque input (0 for a prescribed hub), N m.
+    pub fn torque(&self) -> f64 {
+        self.phase.torque
     }
 
     pub fn model(&self) -> &RotatingModel {

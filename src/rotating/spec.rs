@@ -156,11 +156,17 @@ pub struct SolverSpec {
     /// Events allowed within one call to `advance_to`.
     #[serde(default = "default_max_events")]
     pub max_events_per_step: u64,
+    /// Radau steps allowed within one call to `advance_to`: a bound on the
+    /// time one call takes (about 50 us per step at 6 modes; with a surface
+    /// the step is capped at the shortest modal period, so the seed scene
+    /// covers about 15 s per call at most).
+    #[serde(default = "default_max_steps")]
+    pub max_steps_per_step: u64,
 }
 
 impl Default for SolverSpec {
     fn default() -> Self {
-        SolverSpec { tolerance: default_tolerance(), max_events_per_step: default_max_events() }
+        SolverSpec { tolerance: default_tolerance(), max_events_per_step: default_max_events(), max_steps_per_step: default_max_steps() }
     }
 }
 
@@ -170,6 +176,10 @@ fn default_tolerance() -> f64 {
 
 fn default_max_events() -> u64 {
     10_000
+}
+
+fn default_max_steps() -> u64 {
+    20_000
 }
 
 /// Suggested run (used by the report and examples, not by the engine).
@@ -184,6 +194,23 @@ pub struct ExperimentSpec {
 
 /// Allowed ranges (the messages quote them).
 pub const N_MODES_MAX: usize = 40;
+/// Hub speeds up to this many times the beam's first bending frequency
+/// (the first-order model stays valid far beyond the divergence of the
+/// zeroth-order one near 1x; past this, centrifugal stiffening makes the
+/// bending modes too stiff to resolve at the rounding of the angle).
+pub const SPEED_LIMIT_RATIO: f64 = 100.0;
+/// Hub angles (initial or prescribed start) within +-this, rad: the tip
+/// position keeps a resolution of about 1e-12 of the beam's length.
+pub const ANGLE_LIMIT: f64 = 1e4;
+/// Hub torques up to this many times `J_b omega_1^2` (`J_b` the beam's inertia about its root).
+pub const TORQUE_LIMIT_RATIO: f64 = 1e3;
+/// Hub inertia, hub radius and gravity up to these multiples of the
+/// beam's inertia about its root, its length and 9.81 m/s^2.
+pub const HUB_INERTIA_MAX_RATIO: f64 = 1e12;
+pub const HUB_RADIUS_MAX_RATIO: f64 = 1e3;
+pub const GRAVITY_MAX: f64 = 9.81e3;
+/// Spin-up durations from this fraction of the first bending period.
+pub const SPIN_DURATION_MIN_RATIO: f64 = 1e-3;
 pub const TOLERANCE_RANGE: Range = Range { min: 1e-13, max: 1e-3, min_open: false, max_open: false };
 pub const STIFFNESS_RANGE: Range = Range { min: 0.0, max: 1e16, min_open: true, max_open: false };
 const POSITIVE: Range = Range::POSITIVE;
@@ -209,6 +236,58 @@ impl RotatingSpec {
         }
     }
 
+    /// First clamped-free bending frequency of the beam, `1.8751^2
+    /// sqrt(EI / (mu L^4))`, rad/s (no spin).
+    pub fn first_bending_frequency(&self) -> f64 {
+        let (mu, ei) = self.section();
+        1.875_104_068_711_961_f64.powi(2) * (ei / (mu * self.beam.length.powi(4))).sqrt()
+    }
+
+    /// The rigid beam's inertia about its root, `mu L^3 / 3`, kg m^2.
+    pub fn beam_inertia(&self) -> f64 {
+        let (mu, _) = self.section();
+        mu * self.beam.length.powi(3) / 3.0
+    }
+
+    /// Allowed hub inertias: positive for a torque-driven hub (at J_h = 0
+    /// the mass matrix is near-singular), any for a prescribed one.
+    pub fn hub_inertia_range(&self) -> Range {
+        let max = HUB_INERTIA_MAX_RATIO * self.beam_inertia();
+        match self.hub {
+            HubDrive::Torque => Range { min: 0.0, max, min_open: true, max_open: false },
+            HubDrive::Prescribed(_) => Range::closed(0.0, max),
+        }
+    }
+
+    pub fn hub_radius_range(&self) -> Range {
+        Range::closed(0.0, HUB_RADIUS_MAX_RATIO * self.beam.length)
+    }
+
+    pub fn gravity_range(&self) -> Range {
+        Range::closed(0.0, GRAVITY_MAX)
+    }
+
+    /// Allowed initial hub speeds and spin-up rates.
+    pub fn speed_range(&self) -> Range {
+        let w = SPEED_LIMIT_RATIO * self.first_bending_frequency();
+        Range::closed(-w, w)
+    }
+
+    pub fn angle_range(&self) -> Range {
+        Range::closed(-ANGLE_LIMIT, ANGLE_LIMIT)
+    }
+
+    /// Allowed hub torques (the input), from the beam alone (not from a parameter).
+    pub fn torque_range(&self) -> Range {
+        let t = TORQUE_LIMIT_RATIO * self.beam_inertia() * self.first_bending_frequency().powi(2);
+        Range::closed(-t, t)
+    }
+
+    /// Allowed spin-up durations.
+    pub fn spin_duration_range(&self) -> Range {
+        Range::closed(SPIN_DURATION_MIN_RATIO * std::f64::consts::TAU / self.first_bending_frequency(), f64::INFINITY)
+    }
+
     /// Checks every field; the message names the field, its value and the allowed range.
     pub fn validate(&self) -> Result<(), String> {
         let check = |range: Range, what: &str, v: f64| range.check(what, v).map_err(|e| format!("rotating scene '{}': {e}", self.name));
@@ -232,19 +311,20 @@ impl RotatingSpec {
         }
         match self.hub {
             HubDrive::Torque => {
-                if !(self.hub_inertia > 0.0 && self.hub_inertia.is_finite()) {
+                if !self.hub_inertia_range().contains(self.hub_inertia) {
                     return fail(format!(
-                        "hub_inertia = {:?}: allowed range is (0, inf) with a torque-driven hub: at J_h = 0 the clamped-free \
+                        "hub_inertia = {:?}: allowed range is {} with a torque-driven hub: at J_h = 0 the clamped-free \
                          modes nearly span the rigid rotation and the mass matrix J(z) is near-singular (it turns \
                          indefinite at millimetre deflections); give the hub's inertia or prescribe its motion",
-                        self.hub_inertia
+                        self.hub_inertia,
+                        self.hub_inertia_range()
                     ));
                 }
             }
             HubDrive::Prescribed(Profile::SpinUp { omega_s, duration }) => {
-                check(NON_NEGATIVE, "hub_inertia", self.hub_inertia)?;
-                check(ANY, "hub.prescribed.omega_s", omega_s)?;
-                check(POSITIVE, "hub.prescribed.T", duration)?;
+                check(self.hub_inertia_range(), "hub_inertia", self.hub_inertia)?;
+                check(self.speed_range(), "hub.prescribed.omega_s", omega_s)?;
+                check(self.spin_duration_range(), "hub.prescribed.T", duration)?;
                 if self.initial.theta_dot != 0.0 {
                     return fail(format!(
                         "initial.theta_dot = {:?}: a prescribed hub follows its profile (theta_dot(0) = 0 for spin_up); allowed value 0",
@@ -253,8 +333,8 @@ impl RotatingSpec {
                 }
             }
         }
-        check(NON_NEGATIVE, "hub_radius", self.hub_radius)?;
-        check(NON_NEGATIVE, "gravity", self.gravity)?;
+        check(self.hub_radius_range(), "hub_radius", self.hub_radius)?;
+        check(self.gravity_range(), "gravity", self.gravity)?;
         check(Range::closed(0.0, 10.0), "modal_damping", self.modal_damping)?;
         if let Some(s) = &self.surface {
             check(ANY, "surface.normal[0]", s.normal[0])?;
@@ -279,8 +359,8 @@ impl RotatingSpec {
                 }
             }
         }
-        check(ANY, "initial.theta", self.initial.theta)?;
-        check(ANY, "initial.theta_dot", self.initial.theta_dot)?;
+        check(self.angle_range(), "initial.theta", self.initial.theta)?;
+        check(self.speed_range(), "initial.theta_dot", self.initial.theta_dot)?;
         for (what, v) in [("initial.B", &self.initial.b), ("initial.B_dot", &self.initial.b_dot)] {
             if !v.is_empty() && v.len() != self.n_modes {
                 return fail(format!("{what} has {} entries: give none (all zero) or n_modes = {}", v.len(), self.n_modes));
@@ -292,6 +372,9 @@ impl RotatingSpec {
         check(TOLERANCE_RANGE, "solver.tolerance", self.solver.tolerance)?;
         if self.solver.max_events_per_step == 0 {
             return fail("solver.max_events_per_step = 0: allowed range is [1, inf)".into());
+        }
+        if self.solver.max_steps_per_step == 0 {
+            return fail("solver.max_steps_per_step = 0: allowed range is [1, inf)".into());
         }
         if let Some(e) = &self.experiment {
             check(ANY, "experiment.start", e.start)?;
@@ -322,7 +405,7 @@ mod tests {
         assert_eq!(s.order, OrderSpec::First);
         assert_eq!(s.surface.as_ref().unwrap().law.hertz().damping, HertzDamping::LankaraniNikravesh);
         let e = RotatingSpec::from_json(&SEED.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0.0")).unwrap_err();
-        assert!(e.contains("hub_inertia = 0.0") && e.contains("(0, inf)") && e.contains("near-singular"), "{e}");
+        assert!(e.contains("hub_inertia = 0.0") && e.contains("(0, 289613333333.3333]") && e.contains("near-singular"), "{e}");
         let e = RotatingSpec::from_json(&SEED.replace("\"K\": 7.6e9", "\"K\": -1")).unwrap_err();
         assert!(e.contains("surface.law.K = -1.0") && e.contains("(0, 10000000000000000]"), "{e}");
         let e = RotatingSpec::from_json(&SEED.replace("\"e\": 0.8", "\"e\": 1.5")).unwrap_err();

@@ -23,6 +23,8 @@ SCENES = {
     "SpringStopHard": "spring_stop_hard",
     "SpringStopVeryHard": "spring_stop_very_hard",
     "HertzStop": "hertz_stop",
+    "RotatingBeamImpact": "rotating_beam",
+    "SpinUpBeam": "spin_up",
 }
 
 def modal(n, *patterns):
@@ -60,6 +62,14 @@ EXPECTED["HertzStop"] = {
 } | modal(20, "q0[{j}]", "qd0[{j}]")
 EXPECTED["WaggBishopCantilever4"] = (EXPECTED["WaggBishopCantilever1"] - modal(1, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")) | modal(
     4, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")
+
+# The rotating hub beam (seed 004): the hub, the tip, the root moment, and
+# the surface's outputs only where the scene has a surface; the spin-up's hub
+# motion is prescribed, so it has no torque input but the torque it needs.
+ROTATING_OUTPUTS = {"theta", "theta_dot", "tip.w", "tip.x", "tip.y", "root.M", "energy"}
+EXPECTED["RotatingBeamImpact"] = {"J_h", "K", "e", "theta0", "theta_dot0", "torque"} | ROTATING_OUTPUTS | {
+    f"stop.{o}" for o in ("force", "penetration", "contact", "contacts", "impulse", "E_dissipated")}
+EXPECTED["SpinUpBeam"] = {"J_h", "theta0", "omega_s", "T", "hub.torque"} | ROTATING_OUTPUTS
 
 SI_UNITS = {"tip.w": "m", "tip.v": "m/s", "clamp.M": "N.m", "stop.lambda": "N", "stop.t_last_impact": "s",
             "shaker.amplitude": "m/s2", "shaker.omega": "rad/s", "force": "N", "a_clamp": "m/s2",

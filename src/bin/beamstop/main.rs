@@ -13,10 +13,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use beamstop::fmi2::description::model_description;
-use beamstop::interface;
-use beamstop::readout::{self, Value};
 use beamstop::package::write_fmu;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::readout::Value;
+use beamstop::rotating::RotatingEventKind;
+use beamstop::{Component, EventKind, Run};
 
 const USAGE: &str = "usage:
   beamstop package [scene.json ...]      build FMUs into target/fmu (default: every scene in scenes/)
@@ -34,9 +34,9 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn load(path: &Path) -> Result<Scene, String> {
+fn load(path: &Path) -> Result<Component, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
+    Component::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Every scene file in scenes/, sorted.
@@ -67,7 +67,7 @@ fn fmu_binary() -> Result<PathBuf, String> {
 fn package(args: &[String]) -> Result<(), String> {
     let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
     // Validate everything first: no FMU is written from an invalid scene.
-    let scenes: Vec<Scene> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
+    let scenes: Vec<Component> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
     let binary = fmu_binary()?;
     let out = root().join("target").join("fmu");
     for scene in &scenes {
@@ -105,17 +105,18 @@ fn run(args: &[String]) -> Result<(), String> {
     };
     let file = positional.first().map(PathBuf::from).unwrap_or_else(|| root().join("scenes").join("pinned_beam.json"));
     let scene = load(&file)?;
-    let stop = number(args, "--stop")?.unwrap_or(scene.experiment.stop);
-    let step = number(args, "--step")?.unwrap_or(scene.experiment.step);
+    let experiment = scene.experiment();
+    let stop = number(args, "--stop")?.unwrap_or(experiment.stop);
+    let step = number(args, "--step")?.unwrap_or(experiment.step);
     if !(step > 0.0) {
         return Err(format!("--step {step}: must be > 0"));
     }
     let out_dir = flag(args, "--out")?.map(PathBuf::from).unwrap_or_else(|| root().join("target").join("results"));
     std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
-    let model = Model::build(&scene).map_err(|e| e.0)?;
-    let start = scene.experiment.start;
-    let mut sim = Simulation::new(model, start).map_err(|e| e.to_string())?;
-    let outputs = interface::outputs(&scene);
+    let start = experiment.start;
+    let mut sim = scene.start(start, &vec![0.0; scene.inputs().len()])?;
+    sim.set_event_recording(true);
+    let outputs = scene.outputs();
     let mut csv = String::from("time");
     for o in &outputs {
         csv.push(',');
@@ -127,10 +128,10 @@ fn run(args: &[String]) -> Result<(), String> {
     let n = ((stop - start) / step).round() as u64;
     for k in 0..=n {
         let t = if k == n { stop } else { start + k as f64 * step };
-        sim.advance_to(t).map_err(|e| e.to_string())?;
+        sim.advance_to(t).map_err(|e| e.message)?;
         csv.push_str(&format!("{t}"));
         for o in &outputs {
-            let v = match readout::evaluate(o.key, &sim) {
+            let v = match sim.evaluate(o.key) {
                 Value::Real(x) => format!("{x}"),
                 Value::Integer(i) => format!("{i}"),
                 Value::Boolean(b) => format!("{}", b as u8),
@@ -139,36 +140,61 @@ fn run(args: &[String]) -> Result<(), String> {
             csv.push_str(&v);
         }
         csv.push('\n');
-        for e in sim.drain_events() {
-            let (kind, stop, detail) = match e.kind {
-                EventKind::Impact { stop, speed, restitution, chatter, .. } => {
-                    ("impact", stop, format!("speed={speed:e} R={restitution}{}", if chatter { " chatter-end" } else { "" }))
-                }
-                EventKind::Stick { stop, reaction } => ("stick", stop, format!("reaction={reaction:e}")),
-                EventKind::Release { stop } => ("release", stop, String::new()),
-                EventKind::Graze { stop } => ("graze", stop, String::new()),
-                EventKind::Contact { stop, speed } => ("contact", stop, format!("speed={speed:e}")),
-                EventKind::Separation { stop, penetration } => ("separation", stop, format!("penetration={penetration:e}")),
-            };
-            events.push_str(&format!("{:.17},{kind},{},{detail}\n", e.time, scene.stops[stop].name));
-        }
+        event_rows(&mut sim, &mut events);
     }
     let elapsed = clock.elapsed();
-    let results = out_dir.join(format!("{}.csv", scene.name));
-    let event_file = out_dir.join(format!("{}_events.csv", scene.name));
+    let results = out_dir.join(format!("{}.csv", scene.name()));
+    let event_file = out_dir.join(format!("{}_events.csv", scene.name()));
     std::fs::write(&results, csv).map_err(|e| format!("{}: {e}", results.display()))?;
     std::fs::write(&event_file, events).map_err(|e| format!("{}: {e}", event_file.display()))?;
-    let stats = sim.stats();
-    println!(
-        "{}: t = {start}..{stop}, step {step}: {} events, {} event-function evaluations, {:.3} ms",
-        scene.name,
-        stats.events,
-        stats.probes,
-        elapsed.as_secs_f64() * 1e3
-    );
+    let work = match &sim {
+        Run::Modal(s) => {
+            let stats = s.stats();
+            format!("{} events, {} event-function evaluations", stats.events, stats.probes)
+        }
+        Run::Rotating(s) => {
+            let stats = s.stats();
+            format!("{} events, {} Radau steps ({} rejected)", stats.events, stats.accepted, stats.rejected)
+        }
+    };
+    println!("{}: t = {start}..{stop}, step {step}: {work}, {:.3} ms", scene.name(), elapsed.as_secs_f64() * 1e3);
     println!("results: {}", results.display());
     println!("events:  {}", event_file.display());
     Ok(())
+}
+
+/// Appends the events since the last call as CSV rows `time,event,stop,detail`.
+fn event_rows(sim: &mut Run, out: &mut String) {
+    match sim {
+        Run::Modal(s) => {
+            for e in s.drain_events() {
+                let (kind, stop, detail) = match e.kind {
+                    EventKind::Impact { stop, speed, restitution, chatter, .. } => {
+                        ("impact", stop, format!("speed={speed:e} R={restitution}{}", if chatter { " chatter-end" } else { "" }))
+                    }
+                    EventKind::Stick { stop, reaction } => ("stick", stop, format!("reaction={reaction:e}")),
+                    EventKind::Release { stop } => ("release", stop, String::new()),
+                    EventKind::Graze { stop } => ("graze", stop, String::new()),
+                    EventKind::Contact { stop, speed } => ("contact", stop, format!("speed={speed:e}")),
+                    EventKind::Separation { stop, penetration } => ("separation", stop, format!("penetration={penetration:e}")),
+                };
+                out.push_str(&format!("{:.17},{kind},{},{detail}\n", e.time, s.model().stops[stop].name));
+            }
+        }
+        Run::Rotating(s) => {
+            for e in s.drain_events() {
+                let (kind, detail) = match e.kind {
+                    RotatingEventKind::Onset { speed } => ("contact", format!("speed={speed:e}")),
+                    RotatingEventKind::PushEnd { penetration } => ("push-end", format!("penetration={penetration:e}")),
+                    RotatingEventKind::PushResumed => ("push-resumed", String::new()),
+                    RotatingEventKind::Separation { peak_force, duration, impulse } => {
+                        ("separation", format!("peak_force={peak_force:e} duration={duration:e} impulse={impulse:e}"))
+                    }
+                };
+                out.push_str(&format!("{:.17},{kind},surface,{detail}\n", e.time));
+            }
+        }
+    }
 }
 
 /// The dimensionless modes of a beam as JSON, for independent checks.
@@ -215,7 +241,7 @@ fn main() -> ExitCode {
             std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
             for f in files {
                 let scene = load(&f)?;
-                let path = dir.join(format!("{}.xml", scene.name));
+                let path = dir.join(format!("{}.xml", scene.name()));
                 std::fs::write(&path, model_description(&scene)).map_err(|e| format!("{}: {e}", path.display()))?;
                 println!("{}", path.display());
             }
@@ -227,7 +253,7 @@ fn main() -> ExitCode {
             None => Err(USAGE.into()),
         },
         Some("check") if args.len() > 1 => args[1..].iter().try_for_each(|f| {
-            load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name, s.guid()))
+            load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name(), s.guid()))
         }),
         _ => Err(USAGE.into()),
     };
