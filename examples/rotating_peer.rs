@@ -1,6 +1,6 @@
 //! Error against run time for the rotating hub beam's Hertz tip contact
 //! (seed: Duan, Wang & Zhang, "Impact dynamics of a flexible beam with
-//! rotation"; scene `scenes_rotating/rotating_beam.json`: aluminium beam, 6
+//! rotation"; scene `scenes/rotating_beam.json`: aluminium beam, 6
 //! clamped-free modes, first-order model, J_h = 0.05 kg m^2, tip on the
 //! plane at t = 0 with theta' = 2 rad/s, Hertz K = 7.6e9 N/m^1.5 with
 //! Lankarani-Nikravesh damping e = 0.8), 0 to `T_END` = 0.05 s, which holds
@@ -594,7 +594,7 @@ fn timed<T>(reps: usize, mut f: impl FnMut() -> Result<T, String>) -> Result<(f6
 }
 
 fn scene(tol: f64) -> RotatingSpec {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes_rotating/rotating_beam.json");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/rotating_beam.json");
     let mut spec = RotatingSpec::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
     spec.solver.tolerance = tol;
     spec

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Error against run time for the rotating hub beam's Hertz tip contact
 (seed: Duan, Wang & Zhang, "Impact dynamics of a flexible beam with
-rotation"; scene scenes_rotating/rotating_beam.json, 0 to 0.05 s: the first
+rotation"; scene scenes/rotating_beam.json, 0 to 0.05 s: the first
 collision cluster, about a dozen contacts, then free flight).
 
     python -m tools.report.rotating_peers [--out report/rotating] [--reps 5]
@@ -509,7 +509,7 @@ def summary(out: Path, rows, ref, checks, eq, native, skipped, elapsed, reps, cf
              f"{load[1]:.1f} at the end); times are the fastest of several runs, and still vary by tens of "
              "per cent between reports: read the ratios to that precision.\n")
     on = ref["onsets"]
-    L.append(f"Scene `scenes_rotating/rotating_beam.json` (seed: Duan, Wang & Zhang): aluminium beam, "
+    L.append(f"Scene `scenes/rotating_beam.json` (seed: Duan, Wang & Zhang): aluminium beam, "
              f"{spec['n_modes']} clamped-free modes (omega_N = {native['omega_n']:.4g} rad/s), first-order model, "
              f"J_h = {spec['hub_inertia']} kg m^2, tip on the plane at t = 0 with theta' = "
              f"{spec['initial']['theta_dot']} rad/s, Hertz K = {spec['surface']['law']['K']:.3g} N/m^1.5, "
