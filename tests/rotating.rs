@@ -7,7 +7,8 @@
 use std::f64::consts::TAU;
 use std::sync::Arc;
 
-use beamstop::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
+use beamstop::rotating::spec::{HubDrive, Profile};
+use beamstop::rotating::{RotatingError, RotatingEvent, RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use beamstop::solve::quadrature::for_each_node;
 use beamstop::structure::beam::{DimensionlessMode, Support};
 use beamstop::structure::rotating::Plane;
@@ -342,6 +343,9 @@ fn c_single_impact_against_rk4() {
         spec.solver.tolerance = tol;
         let (on, off, peak, y, st) = engine_first_contact(&spec);
         errors.push(exit_error(&y));
+        // The peak at each tolerance (it was off by 1.2e-5 at 1e-9 when the
+        // largest sample sat at an end of its step, unrefined).
+        assert!(((peak - peak_r) / peak_r).abs() < 1e-7, "rtol {tol:e}: peak {peak} vs {peak_r}");
         eprintln!(
             "(c) rtol {tol:e}: onset {:+.1e} s, separation {:+.1e} s, peak {:+.1e}, exit state {:.1e}; {} steps, {} in contact",
             on - on_r,
@@ -367,7 +371,8 @@ fn c_single_impact_against_rk4() {
         y_r[7]
     );
     assert!((on - on_r).abs() < 1e-9 && (off - off_r).abs() < 1e-9, "switch times");
-    assert!(((peak - peak_r) / peak_r).abs() < 1e-6, "peak force");
+    // 2.6e-9 (it was 2e-8 while the polynomial's overshoot could stand for the full-order value).
+    assert!(((peak - peak_r) / peak_r).abs() < 1e-8, "peak force");
     assert!(rel < 1e-6, "exit state");
 }
 
@@ -633,4 +638,344 @@ fn h_hub_torque_work_and_momentum() {
     let dh = momentum(&sim) - h0;
     eprintln!("(h) KRB required torque over 5 s: integral {integral:.9} N m s, change of angular momentum {dh:.9} ({:.1e})", (integral - dh) / dh);
     assert!(((integral - dh) / dh).abs() < 1e-6);
+}
+
+// ---------------------------------------------------------------------------
+// Stability cases: the hub inertia to zero, a very stiff contact, grazing
+// contact, very fast spin. Each asserts against a conservation law computed
+// by the quadrature above or against a closed-form motion, and checks that
+// every state stays finite.
+
+/// `(energy, angular momentum)` by quadrature at the run's current state.
+fn quad_eh(quad: &Quadrature, sim: &RotatingSimulation) -> (f64, f64) {
+    let (z, zd) = sim.coordinates();
+    quad.energy_momentum(&z, &zd)
+}
+
+fn assert_finite(sim: &RotatingSimulation, what: &str) {
+    let t = sim.time();
+    assert!(t.is_finite() && sim.y().iter().all(|v| v.is_finite()), "{what}: non-finite state at t = {t}: {}", sim.y());
+    for v in [sim.contact_force(), sim.gap(), sim.theta_dot(), sim.tip_deflection(), sim.total_energy(), sim.hub_torque()] {
+        assert!(v.is_finite(), "{what}: a non-finite output at t = {t}");
+    }
+}
+
+/// Composite Simpson's rule on equally spaced samples (an even number of intervals).
+fn simpson(f: &[f64], dt: f64) -> f64 {
+    assert!(f.len() % 2 == 1);
+    (0..f.len() / 2).map(|k| dt / 3.0 * (f[2 * k] + 4.0 * f[2 * k + 1] + f[2 * k + 2])).sum()
+}
+
+/// A prescribed spin-up of the seed beam (no surface unless given).
+fn spin_up_spec(omega_s: f64, duration: f64) -> RotatingSpec {
+    let mut spec = scene("rotating_beam");
+    spec.surface = None;
+    spec.hub_inertia = 0.0;
+    spec.initial.theta_dot = 0.0;
+    spec.hub = HubDrive::Prescribed(Profile::SpinUp { omega_s, duration });
+    spec
+}
+
+/// (i) J_h -> 0. A torque-driven hub with J_h = 0 is refused with a message
+/// naming the field. J_h = 1e-4 and 1e-6 kg m^2 (the Schur complement
+/// `J_b - Gamma^T M^-1 Gamma` of the seed beam is 5.4e-5 kg m^2) through the
+/// seed scene's collision cluster either run with the contact's energy
+/// balance holding (quadrature energy + stored + dissipated = E0) or stop
+/// with an integration error that names the hub inertia: never a panic or a
+/// non-finite state. A prescribed hub with J_h = 0 driving the tip into the
+/// plane runs, and the work of the hub torque it needs equals the change of
+/// the energy plus what the contact stores and dissipated.
+#[test]
+fn i_hub_inertia_to_zero() {
+    let mut spec = scene("rotating_beam");
+    spec.hub_inertia = 0.0;
+    let e = RotatingSimulation::from_spec(&spec, 0.0).unwrap_err().to_string();
+    assert!(e.contains("hub_inertia = 0.0") && e.contains("(0, inf)") && e.contains("prescribe its motion"), "{e}");
+    for jh in [1e-4, 1e-6] {
+        let mut spec = scene("rotating_beam");
+        spec.hub_inertia = jh;
+        let quad = Quadrature::new(&spec);
+        let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+        let e0 = quad_eh(&quad, &sim).0;
+        let (mut worst, mut outcome): (f64, Result<(), RotatingError>) = (0.0, Ok(()));
+        for i in 1..=250 {
+            let r = sim.advance_to(i as f64 * 1e-4);
+            assert_finite(&sim, &format!("J_h = {jh}"));
+            if let Err(e) = r {
+                outcome = Err(e);
+                break;
+            }
+            let balance = quad_eh(&quad, &sim).0 + sim.stored_energy() + sim.dissipated_energy() - e0;
+            worst = worst.max(balance.abs() / e0);
+        }
+        eprintln!(
+            "(i) J_h = {jh:e}: {} contacts to t = {:.4} s, max |energy imbalance| / E0 = {worst:.1e}, {:?}; outcome {outcome:?}",
+            sim.contacts(),
+            sim.time(),
+            sim.stats()
+        );
+        match outcome {
+            Ok(()) => assert!(worst < 1e-6 && sim.contacts() >= 3, "J_h = {jh}: imbalance {worst:e}, {} contacts", sim.contacts()),
+            Err(e @ RotatingError::Integration { .. }) => {
+                let m = e.to_string();
+                assert!(m.contains("hub_inertia") && worst < 1e-6, "J_h = {jh}: {m} (imbalance before it {worst:e})");
+            }
+            Err(e) => panic!("J_h = {jh}: unexpected error {e}"),
+        }
+    }
+
+    // Prescribed, J_h = 0: spin-up to 2 rad/s in 10 ms into a plane 1 mm
+    // ahead of the tip, which then stays driven into it.
+    let mut spec = spin_up_spec(2.0, 0.01);
+    spec.surface = scene("rotating_beam").surface;
+    spec.surface.as_mut().unwrap().point = [1.0, 1e-3];
+    let quad = Quadrature::new(&spec);
+    let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+    let e0 = quad_eh(&quad, &sim).0;
+    let (dt, count) = (1e-6, 20_000);
+    let mut power = vec![sim.hub_torque() * sim.theta_dot()];
+    let mut max_force: f64 = 0.0;
+    for i in 1..=count {
+        sim.advance_to(i as f64 * dt).unwrap();
+        assert_finite(&sim, "prescribed J_h = 0");
+        power.push(sim.hub_torque() * sim.theta_dot());
+        max_force = max_force.max(sim.contact_force());
+    }
+    let work = simpson(&power, dt);
+    let gained = quad_eh(&quad, &sim).0 + sim.stored_energy() + sim.dissipated_energy() - e0;
+    eprintln!(
+        "(i) prescribed J_h = 0 into the plane: {} contacts, max force {max_force:.1} N, v_L = {:.4e} m at {:.3} s; hub work {work:.9} J, \
+         energy gained + stored + dissipated {gained:.9} J ({:.1e}); {:?}",
+        sim.contacts(),
+        sim.tip_deflection(),
+        sim.time(),
+        (work - gained) / work,
+        sim.stats()
+    );
+    assert!(sim.contacts() >= 1 && max_force > 0.0);
+    assert!(((work - gained) / work).abs() < 1e-6, "{work} vs {gained}");
+}
+
+/// (j) K = 1e12 N/m^1.5 (130 times the seed's) through the seed scene's
+/// collision cluster: no step collapse (the Radau steps per contact and in
+/// all stay within 3 times those at the seed's K, and under 300 per
+/// contact), and both balances hold: energy (quadrature + stored +
+/// dissipated = E0) and angular momentum (the change by quadrature = the
+/// contact's angular impulse about the axis).
+#[test]
+fn j_stiff_contact_without_step_collapse() {
+    let mut counts = vec![];
+    for k in [7.6e9, 1e12] {
+        let mut spec = scene("rotating_beam");
+        let beamstop::rotating::spec::SurfaceLaw::Hertz(h) = &mut spec.surface.as_mut().unwrap().law;
+        h.stiffness = k;
+        let quad = Quadrature::new(&spec);
+        let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+        let (e0, h0) = quad_eh(&quad, &sim);
+        let (mut worst_e, mut worst_h): (f64, f64) = (0.0, 0.0);
+        for i in 1..=300 {
+            sim.advance_to(i as f64 * 1e-4).unwrap();
+            assert_finite(&sim, &format!("K = {k:e}"));
+            let (e, hm) = quad_eh(&quad, &sim);
+            worst_e = worst_e.max((e + sim.stored_energy() + sim.dissipated_energy() - e0).abs() / e0);
+            worst_h = worst_h.max((hm - h0 - sim.angular_impulse_total()).abs() / h0.abs());
+        }
+        let st = sim.stats();
+        let per_contact = st.contact_steps as f64 / sim.contacts() as f64;
+        eprintln!(
+            "(j) K = {k:.1e}: {} contacts in 0.03 s, {} accepted steps ({} in contact, {per_contact:.1} per contact), {} rejected; \
+             max |energy imbalance| / E0 = {worst_e:.1e}, max |dH - angular impulse| / H0 = {worst_h:.1e}",
+            sim.contacts(),
+            st.accepted,
+            st.contact_steps,
+            st.rejected
+        );
+        assert!(sim.contacts() >= 3 && worst_e < 1e-6 && worst_h < 1e-8, "K = {k:e}");
+        counts.push((per_contact, st.accepted as f64));
+    }
+    let ((pc0, all0), (pc1, all1)) = (counts[0], counts[1]);
+    assert!(pc1 <= 3.0 * pc0 && pc1 < 300.0 && all1 <= 3.0 * all0, "{counts:?}");
+}
+
+/// (k) Grazing, against closed-form motion. With `B = 0`, no gravity and
+/// no torque the rigid rotation `theta = theta_0 + theta' t` solves the
+/// equations exactly (`Q = 0` there), so the tip runs on the circle of
+/// radius L.
+///
+/// 1. A plane `x = L + delta` (free side `x < L + delta`) tangent to that
+///    circle to within `delta`: touched iff `delta < 0`, from
+///    `theta = -acos(1 + delta / L)` on (penetration `|delta|`, normal
+///    speed `L theta' sin(theta)` at the onset: 2.8e-5 m/s for
+///    `delta = -1e-10`, 9e-7 m/s for `-1e-13`), each touch far shorter
+///    than the step.
+/// 2. The tip approaching the plane `y = 1e-9 m` at a normal speed of
+///    1e-6 m/s (`theta' = 1e-6 rad/s`): the onset at
+///    `t = asin(1e-9 / L) / theta'` (1 ms) with that speed; the slow contact
+///    that follows keeps both balances.
+#[test]
+fn k_grazing_contact_against_closed_form() {
+    let l = 1.0;
+    for (delta, want) in [(-1e-10, 1u64), (-1e-13, 1), (1e-13, 0), (1e-10, 0)] {
+        let mut spec = scene("rotating_beam");
+        let (th0, thd) = (-0.01, 2.0);
+        spec.initial.theta = th0;
+        spec.initial.theta_dot = thd;
+        let s = spec.surface.as_mut().unwrap();
+        s.normal = [-1.0, 0.0];
+        s.point = [l + delta, 0.0];
+        let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+        sim.advance_to(0.01).unwrap();
+        assert_finite(&sim, "graze");
+        let events = sim.drain_events();
+        let onset = events.iter().find_map(|e| matches!(e.kind, RotatingEventKind::Onset { .. }).then_some(e.time));
+        let exit = events.iter().find_map(|e| matches!(e.kind, RotatingEventKind::Separation { .. }).then_some(e.time));
+        // The touch: |theta| < theta* = acos(1 + d / L) = 2 asin(sqrt(-d / 2L)),
+        // d = x_p - L (exact in floating point) the plane's offset as stored.
+        let d = s_point_x(&spec) - l;
+        let theta_star = if d < 0.0 { 2.0 * (-d / (2.0 * l)).sqrt().asin() } else { 0.0 };
+        let half = theta_star / thd;
+        // The gap near the circle's top is known to a rounding of cos(theta)
+        // (eps L), which moves the onset by eps L / (L theta' sin(theta*)).
+        let slack = 1e-6 * half + 4.0 * f64::EPSILON / (thd * theta_star.sin().max(f64::MIN_POSITIVE));
+        let (t_on, t_off) = (-th0 / thd - half, -th0 / thd + half);
+        eprintln!(
+            "(k) plane {delta:+e} m from the tip's circle: {} onsets (onset {onset:?} vs {t_on:.15}, separation {exit:?} vs {t_off:.15}, \
+             allowed {slack:.1e} s), {} steps; the touch lasts {:.1e} s",
+            sim.contacts(),
+            sim.stats().accepted,
+            2.0 * half
+        );
+        assert_eq!(sim.contacts(), want, "delta = {delta:e}: {events:?}");
+        if want > 0 {
+            assert!((onset.unwrap() - t_on).abs() < slack && (exit.unwrap() - t_off).abs() < slack, "{events:?}");
+            // The touch is too light to move the beam: the rotation goes on.
+            assert!((sim.theta_dot() - thd).abs() < 1e-9 && sim.tip_deflection().abs() < 1e-9);
+        }
+    }
+
+    // Normal approach at 1e-6 m/s, at the default tolerance and the tightest.
+    let mut imbalance = vec![];
+    for tol in [1e-10, 1e-13] {
+        let mut spec = scene("rotating_beam");
+        let (y0, thd) = (1e-9, 1e-6);
+        spec.initial.theta_dot = thd;
+        spec.surface.as_mut().unwrap().point = [1.0, y0];
+        spec.solver.tolerance = tol;
+        let quad = Quadrature::new(&spec);
+        let mut sim = RotatingSimulation::from_spec(&spec, 0.0).unwrap();
+        let (e0, h0) = quad_eh(&quad, &sim);
+        let (mut worst_e, mut worst_h): (f64, f64) = (0.0, 0.0);
+        let mut events = vec![];
+        for i in 1..=200 {
+            sim.advance_to(i as f64 * 1e-4).unwrap();
+            assert_finite(&sim, "slow approach");
+            let (e, h) = quad_eh(&quad, &sim);
+            worst_e = worst_e.max((e + sim.stored_energy() + sim.dissipated_energy() - e0).abs() / e0);
+            worst_h = worst_h.max((h - h0 - sim.angular_impulse_total()).abs() / h0);
+            events.extend(sim.drain_events());
+        }
+        let t_on = (y0 / l).asin() / thd;
+        let (t1, v1) = match events.first() {
+            Some(RotatingEvent { time, kind: RotatingEventKind::Onset { speed } }) => (*time, *speed),
+            e => panic!("the first event is not an onset: {e:?}"),
+        };
+        eprintln!(
+            "(k) approach at 1e-6 m/s, tol {tol:e}: onset at {t1:.15} s (closed form {t_on:.15}) at {v1:.12e} m/s; {} contacts to 0.02 s, \
+             theta' = {:.4e} rad/s then, max |energy imbalance| / E0 = {worst_e:.1e}, max |dH - angular impulse| / H0 = {worst_h:.1e}; {:?}",
+            sim.contacts(),
+            sim.theta_dot(),
+            sim.stats()
+        );
+        assert!((t1 - t_on).abs() < 1e-12 && (v1 - thd * l).abs() < 1e-9 * thd * l);
+        assert!(sim.contacts() >= 1 && sim.theta_dot() < 0.0, "the hub rebounds");
+        // The tolerances are relative to the motion's size only above
+        // absolute floors (deflections 1e-4 L, rates 1e-4 L omega_1): this
+        // motion is 1e-4 of the floor's rate, so the balances hold to
+        // about 1e6 (energy) and 1e5 (momentum) times the tolerance.
+        assert!(worst_e < 3e7 * tol && worst_h < 1e6 * tol, "tol {tol:e}: {worst_e:e} {worst_h:e}");
+        imbalance.push(worst_e);
+    }
+    assert!(imbalance[1] < 1e-2 * imbalance[0], "the imbalance falls with the tolerance: {imbalance:?}");
+}
+
+fn s_point_x(spec: &RotatingSpec) -> f64 {
+    spec.surface.as_ref().unwrap().point[0]
+}
+
+/// (l) Very fast spin: prescribed spin-ups of the seed beam (first-order
+/// model, 6 modes, J_h = 0) to 10 and 50 times its first bending frequency
+/// omega_1 = 87.8 rad/s. While the hub accelerates, the work of the hub
+/// torque it needs (Simpson on `tau theta'`) equals the change of the
+/// energy (quadrature). At constant spin `Omega` the Jacobi integral
+/// `h = E - Omega H + (J_h + J_b) Omega^2 / 2 = 1/2 B'^T M B' + 1/2 B^T (K - Omega^2 (M - D)) B`
+/// (E, H, J_b by quadrature) is conserved, and it bounds the tip:
+/// `|v_L| <= |w| sqrt(2 h / lambda_min(K - Omega^2 (M - D)))`. (h is the
+/// small difference of terms of the size of the spin energy
+/// `J_b Omega^2 / 2`, 1e5 and 3e6 J here: its drift is checked to 1e-12 of
+/// that, a few tens of its ulps, or 1e-6 of h.)
+#[test]
+fn l_very_fast_spin_stays_bounded() {
+    for (factor, duration, dt) in [(10.0, 2.0, 2e-4), (50.0, 4.0, 2e-4)] {
+        let model = RotatingModel::new(&scene("rotating_beam")).unwrap();
+        let omega_s = factor * model.beam.omega(1);
+        let spec = spin_up_spec(omega_s, duration);
+        let model = Arc::new(RotatingModel::new(&spec).unwrap());
+        let quad = Quadrature::new(&spec);
+        let j_b: f64 = quad.nodes.iter().map(|(x, wt, ..)| wt * quad.mu * (quad.r + x).powi(2)).sum();
+        let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+        let e0 = quad_eh(&quad, &sim).0;
+        let count = (duration / dt).round() as usize;
+        let mut power = vec![0.0];
+        let mut vmax: f64 = 0.0;
+        let mut worst_w: f64 = 0.0;
+        for i in 1..=count {
+            let t = i as f64 * dt;
+            sim.advance_to(t).unwrap();
+            assert_finite(&sim, "spin-up");
+            power.push(sim.hub_torque() * sim.theta_dot());
+            vmax = vmax.max(sim.tip_deflection().abs());
+            if i % 100 == 0 || i == count {
+                let work = simpson(&power[..=i - i % 2], dt) + if i % 2 == 1 { 0.5 * dt * (power[i - 1] + power[i]) } else { 0.0 };
+                let de = quad_eh(&quad, &sim).0 - e0;
+                worst_w = worst_w.max((work - de).abs() / de.abs().max(1e-300));
+            }
+        }
+        // Constant spin: the Jacobi integral and the bound it gives.
+        let jacobi = |s: &RotatingSimulation| {
+            let (e, h) = quad_eh(&quad, s);
+            e - omega_s * h + 0.5 * j_b * omega_s * omega_s
+        };
+        let h_t = jacobi(&sim);
+        let b = &model.beam;
+        let k_eff = &b.k - (&b.m - &b.d) * (omega_s * omega_s);
+        let lambda_min = k_eff.symmetric_eigenvalues().min();
+        assert!(lambda_min > 0.0, "K - Omega^2 (M - D) positive definite (D - M is, for the first-order model)");
+        let bound = b.w.norm() * (2.0 * h_t.max(0.0) / lambda_min).sqrt();
+        let (mut drift, mut v_late): (f64, f64) = (0.0, 0.0);
+        let scale = 0.5 * j_b * omega_s * omega_s;
+        for i in 1..=1000 {
+            sim.advance_to(duration + i as f64 * 1e-4).unwrap();
+            assert_finite(&sim, "constant spin");
+            drift = drift.max((jacobi(&sim) - h_t).abs());
+            v_late = v_late.max(sim.tip_deflection().abs());
+        }
+        // Independent bound: the static tip deflection under the peak
+        // tangential inertia load mu x theta''_max (theta''_max = 2 Omega_s / T,
+        // a triangular load) without the stiffening (which only adds
+        // stiffness: D - M is positive definite), 11 q0 L^4 / (120 EI).
+        let (l, mu, ei) = (model.beam.params.length, model.beam.params.mass_per_length, model.beam.params.bending_stiffness);
+        let quasi_static = 11.0 * mu * l * (2.0 * omega_s / duration) * l.powi(4) / (120.0 * ei);
+        eprintln!(
+            "(l) spin-up to {factor} omega_1 = {omega_s:.1} rad/s in {duration} s ({:.0} revolutions): max |v_L| {vmax:.3e} m \
+             (quasi-static bound without stiffening {quasi_static:.3e} m), \
+             hub work vs energy gained max rel. diff {worst_w:.1e}; then 0.1 s at constant spin: Jacobi h = {h_t:.4e} J \
+             (rigid part {scale:.3e} J), drift {drift:.1e} J, max |v_L| {v_late:.3e} m <= bound {bound:.3e} m; {:?}",
+            sim.theta() / std::f64::consts::TAU,
+            sim.stats()
+        );
+        assert!(vmax < quasi_static, "bounded: {vmax} vs {quasi_static}");
+        assert!(worst_w < 1e-6, "work {worst_w:e}");
+        assert!(drift <= 1e-6 * h_t.abs() + 1e-12 * scale, "Jacobi drift {drift:e} of {h_t:e}");
+        assert!(v_late <= bound * (1.0 + 1e-6), "{v_late} > {bound}");
+    }
 }

@@ -214,7 +214,9 @@ impl StepCurve<'_> {
     }
 
     /// The largest force on `[t0, end]` along `u` while pressed: its time
-    /// (a golden-section search around the best of the samples) and value.
+    /// (a golden-section search over the sample intervals on either side of
+    /// the best sample, also when that is the first or the last: the peak
+    /// may lie inside the first or last interval) and value.
     pub fn peak_force(&self, end: f64) -> Option<(f64, f64)> {
         if self.phase.contact != ContactState::Pressed || self.phase.model.surface.is_none() {
             return None;
@@ -228,10 +230,7 @@ impl StepCurve<'_> {
         let ts: Vec<f64> = (0..=SAMPLES).map(|k| if k == SAMPLES { end } else { self.t0 + h * k as f64 / SAMPLES as f64 }).collect();
         let fs: Vec<f64> = ts.iter().map(|&t| f(t)).collect();
         let k = (0..ts.len()).fold(0, |best, i| if fs[i] > fs[best] { i } else { best });
-        if k == 0 || k == SAMPLES {
-            return Some((ts[k], fs[k]));
-        }
-        let (mut lo, mut hi) = (ts[k - 1], ts[k + 1]);
+        let (mut lo, mut hi) = (ts[k.saturating_sub(1)], ts[(k + 1).min(SAMPLES)]);
         let r = 0.5 * (5f64.sqrt() - 1.0);
         let (mut x1, mut x2) = (hi - r * (hi - lo), lo + r * (hi - lo));
         let (mut f1, mut f2) = (f(x1), f(x2));

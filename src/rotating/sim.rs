@@ -316,12 +316,14 @@ impl RotatingSimulation {
         let curve = StepCurve { phase: &self.phase, solver: &self.solver, t0: a, t1: b, y0: &y0 };
         let switch = curve.first_switch();
         let mut peak = curve.peak_force(switch.map_or(b, |s| s.0));
-        if let Some((tp, fp)) = peak {
-            // The peak's value from the full-order state there.
+        if let Some((tp, _)) = peak {
+            // The peak's value from the full-order state there (not the
+            // larger of it and the collocation polynomial's value: that
+            // would keep the polynomial's overshoot, an error of order 3).
             if tp > a && tp < b {
                 if let Some(y) = full_order_state(&self.phase, &self.options, a, &y0, tp) {
                     let (z, zd) = self.phase.coords(tp, &y);
-                    peak = Some((tp, self.phase.contact_point(&z, &zd).force.max(fp)));
+                    peak = Some((tp, self.phase.contact_point(&z, &zd).force));
                 }
             }
         }
