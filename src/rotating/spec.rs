@@ -156,10 +156,11 @@ pub struct SolverSpec {
     /// Events allowed within one call to `advance_to`.
     #[serde(default = "default_max_events")]
     pub max_events_per_step: u64,
-    /// Radau steps allowed within one call to `advance_to`: a bound on the
-    /// time one call takes (about 50 us per step at 6 modes; with a surface
-    /// the step is capped at the shortest modal period, so the seed scene
-    /// covers about 15 s per call at most).
+    /// Integration steps allowed within one call to `advance_to`: a bound
+    /// on the time one call takes (Radau IIA: 50 to 130 us per step at 6
+    /// modes, so about 1.3 s at most; with a surface the step is capped at
+    /// the shortest modal period, so the seed scene covers at most about
+    /// 8 s per call).
     #[serde(default = "default_max_steps")]
     pub max_steps_per_step: u64,
 }
@@ -179,7 +180,7 @@ fn default_max_events() -> u64 {
 }
 
 fn default_max_steps() -> u64 {
-    20_000
+    10_000
 }
 
 /// Suggested run (used by the report and examples, not by the engine).
