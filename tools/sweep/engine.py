@@ -34,6 +34,12 @@ def dask_client(scheduler: str | None = None, workers: int | None = None):
             raise SweepError(f"--scheduler: cannot reach '{scheduler}' ({err}); start one with "
                              f"`dask scheduler` and workers with `dask worker ADDRESS`") from None
         try:
+            client.wait_for_workers(1, timeout=60)
+        except TimeoutError:
+            client.close()
+            raise SweepError(f"--scheduler: '{scheduler}' has no worker after 60 s; start some with "
+                             f"`dask worker {scheduler}`") from None
+        try:
             yield client
         finally:
             client.close()
@@ -124,6 +130,7 @@ def run_sweep(spec, out: Path, client, points_per_task: int | None = None, resta
             failures += sum(1 for r in result["rows"] if r["error"])
             bar.update(len(result["rows"]))
     wall = time.perf_counter() - started
+    workers = max(workers, worker_count(client))
     info = spec.info
     meta = {
         "settings": spec.settings(), "fmu_path": str(info.path), "guid": info.guid,

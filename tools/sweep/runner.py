@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from fmpy import extract
+from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
 from . import measures
@@ -87,6 +88,7 @@ class Instance:
                                modelIdentifier=self.plan.model_identifier, instanceName="sweep")
         self.slave.instantiate(callbacks=self._callbacks, loggingOn=False)
         self.used = False
+        self.piece = None      # longest step the work cap allows, learnt from fmi2Discard
 
     def renew(self):
         """After a failure: a new instance (the old one may be in the Error state)."""
@@ -126,6 +128,35 @@ def instance(fmu_data: bytes, plan: Plan) -> Instance:
     if inst is None or inst.plan != plan:
         inst = _INSTANCES[key] = Instance(fmu_data, plan)
     return inst
+
+
+def advance(inst: Instance, now: float, target: float, period: float) -> None:
+    """Steps from now to target: in ONE fmi2DoStep (the results do not
+    depend on the communication step), unless the FMU's work cap per call
+    (fmi2Discard) forces shorter steps: then the state before the step is
+    restored and the span is stepped in pieces of 16, 4, 1 forcing periods,
+    remembered for the next points of this instance."""
+    s = inst.slave
+    while True:
+        piece = inst.piece if inst.piece is not None else target - now
+        snapshot = s.getFMUstate() if target - now > piece or inst.piece is None else None
+        t = now
+        try:
+            while t < target:
+                h = min(piece, target - t)
+                if target - (t + h) < 1e-9 * period:
+                    h = target - t
+                s.doStep(t, h)
+                t = t + h if t + h < target else target
+            if snapshot is not None:
+                s.freeFMUstate(snapshot)
+            return
+        except FMICallException as err:
+            if getattr(err, "status", None) != 2 or snapshot is None or (inst.piece is not None and inst.piece <= period):
+                raise
+            s.setFMUstate(snapshot)
+            s.freeFMUstate(snapshot)
+            inst.piece = 16 * period if inst.piece is None else max(period, inst.piece / 4)
 
 
 def _read(inst: Instance):
@@ -216,7 +247,7 @@ def run_points(fmu_data: bytes, plan: Plan, points: list) -> dict:
             inst.start(pt[1])
             t0 = plan.discard * pt[2]
             if t0 > 0:
-                inst.slave.doStep(0.0, t0)
+                advance(inst, 0.0, t0, pt[2])
             result = record_point(inst, t0, pt[2])
             rows.append(_row(pt, None, None, result, time.perf_counter() - started))
         except Exception as err:  # the FMU refused: record why, go on with the next point
@@ -254,7 +285,7 @@ def run_chain(fmu_data: bytes, plan: Plan, direction: str, chain: int, points: l
             # the next whole forcing period (phase 0 of the new frequency), then the transient: one step
             t0 = (math.ceil(now / period - 1e-9) + plan.discard) * period
             if t0 > now:
-                s.doStep(now, t0 - now)
+                advance(inst, now, t0, period)
             result = record_point(inst, t0, period)
             now = t0 + plan.record * period
             rows.append(_row(pt, direction, chain, result, time.perf_counter() - started))
