@@ -139,6 +139,8 @@ pub enum OutputKey {
     StopImpacts(usize),
     StopLastImpact(usize),
     StopSticking(usize),
+    StopSticks(usize),
+    StopStuckTime(usize),
     StopReaction(usize),
     StopForce(usize),
     StopPenetration(usize),
@@ -543,6 +545,15 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
                     true,
                 );
                 push(OutputKey::StopSticking(i), named(n, s, "sticking"), format!("Whether the structure is stuck to stop '{s}'"), Unit::One, OutputType::Boolean, true);
+                push(OutputKey::StopSticks(i), named(n, s, "sticks"), format!("Number of times the structure stuck to stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
+                push(
+                    OutputKey::StopStuckTime(i),
+                    named(n, s, "stuck_time"),
+                    format!("Total time the structure has been stuck to stop '{s}' since the start (exact, the current hold included)"),
+                    Unit::Second,
+                    real,
+                    false,
+                );
                 push(
                     OutputKey::StopReaction(i),
                     named(n, s, "lambda"),

@@ -128,6 +128,9 @@ fn restored_states_are_validated() {
     corrupt("NaN qd", &|s| s.anchor.qd[0] = f64::NAN, "anchor.qd[1]");
     corrupt("NaN last impact", &|s| s.stops[0].last_impact = f64::NAN, "last impact");
     corrupt("future impact", &|s| s.stops[0].last_impact = 5.0, "after the time");
+    corrupt("NaN time stuck", &|s| s.stops[0].stuck_time = f64::NAN, "time stuck");
+    corrupt("negative time stuck", &|s| s.stops[0].stuck_time = -1.0, "time stuck");
+    corrupt("a hold starting in the future", &|s| s.stops[0].held_since = s.time + 1.0, "hold start");
     corrupt("times out of order", &|s| s.scan = s.time - 0.5, "out of order");
     corrupt("a rigid stop pressed like a compliant one", &|s| s.stops[0].contact = Contact::Pressed, "a state its law does not have");
     corrupt("departing a function not watched", &|s| s.stops[0].departing[1] = true, "departing flag 2");

@@ -19,7 +19,8 @@ use crate::contact::Contact;
 /// Version of the encoding below; bump on any change.
 /// 2: per-stop contact states (compliant stops), impulses, dissipation.
 /// 3: per-stop approach speed at the latest onset (Hertz damping).
-pub const STATE_VERSION: u32 = 3;
+/// 4: per-stop stick onsets, time stuck and the current hold's start.
+pub const STATE_VERSION: u32 = 4;
 
 impl Simulation {
     /// Appends the state (not the model or the inputs: the caller stores
@@ -44,6 +45,9 @@ impl Simulation {
             w.f64(stop.impulse_mark);
             w.f64(stop.dissipated);
             w.f64(stop.onset_speed);
+            w.u64(stop.sticks);
+            w.f64(stop.stuck_time);
+            w.f64(stop.held_since);
         }
         w.modal(&st.current);
         match &st.frozen {
@@ -104,6 +108,9 @@ impl Simulation {
                     impulse_mark: r.f64()?,
                     dissipated: r.f64()?,
                     onset_speed: r.f64()?,
+                    sticks: r.u64()?,
+                    stuck_time: r.f64()?,
+                    held_since: r.f64()?,
                 })
             })
             .collect::<Result<Vec<_>, String>>()?;
@@ -231,6 +238,17 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
             if v < 0.0 {
                 return Err(format!("simulation state: stops[{i}].{what} = {v}: must be >= 0 (stops push, never pull)"));
             }
+        }
+        finite(&format!("stops[{i}].time stuck"), s.stuck_time)?;
+        finite(&format!("stops[{i}].hold start"), s.held_since)?;
+        if s.stuck_time < 0.0 {
+            return Err(format!("simulation state: stops[{i}].time stuck = {}: must be >= 0", s.stuck_time));
+        }
+        if s.contact == Contact::Held && s.held_since > st.anchor_time {
+            return Err(format!(
+                "simulation state: stops[{i}].hold start = {} lies after the anchor {}: a hold starts at or before it",
+                s.held_since, st.anchor_time
+            ));
         }
         finite(&format!("stops[{i}].last impact"), s.last_impact)?;
         if s.last_impact > st.time {

@@ -167,6 +167,12 @@ pub struct StopState {
     /// Approach speed at the latest contact onset (the hysteretic Hertz
     /// damping scales with it).
     pub onset_speed: f64,
+    /// Stick onsets (rigid stops) since the start.
+    pub sticks: u64,
+    /// Time spent stuck in the holds that have ended.
+    pub stuck_time: f64,
+    /// Start of the current hold (meaningful while `Held`).
+    pub held_since: f64,
 }
 
 /// Everything that evolves; with the model and inputs it determines the
@@ -320,6 +326,9 @@ impl Simulation {
                 impulse_mark: 0.0,
                 dissipated: 0.0,
                 onset_speed: s.geometry.penetration_rate(&initial.qd).max(0.0),
+                sticks: u64::from(contact == Contact::Held),
+                stuck_time: 0.0,
+                held_since: start_time,
             });
         }
         let state = SimState {
@@ -407,6 +416,13 @@ impl Simulation {
 
     pub fn is_stuck(&self, stop: usize) -> bool {
         self.state.stops[stop].contact == Contact::Held
+    }
+
+    /// Total time the structure has been stuck to `stop` since the start,
+    /// the current hold included.
+    pub fn stuck_time(&self, stop: usize) -> f64 {
+        let s = &self.state.stops[stop];
+        s.stuck_time + if s.contact == Contact::Held { self.state.time - s.held_since } else { 0.0 }
     }
 
     pub fn contact(&self, stop: usize) -> Contact {
@@ -1287,6 +1303,8 @@ impl Simulation {
         let was: Vec<Contact> = self.state.stops.iter().map(|s| s.contact).collect();
         let mut contact = was.clone();
         for &i in &releases {
+            let counters = &mut self.state.stops[i];
+            counters.stuck_time += t - counters.held_since;
             contact[i] = Contact::Open;
             departing[i] = [true, false];
             self.state.stops[i].previous_impact = None;
@@ -1415,6 +1433,8 @@ impl Simulation {
             if contact[i] == Contact::Held {
                 self.state.stops[i].previous_impact = None;
                 if was[i] != Contact::Held {
+                    self.state.stops[i].sticks += 1;
+                    self.state.stops[i].held_since = t;
                     newly_held.push(i);
                     departing[i] = [true, false];
                 }

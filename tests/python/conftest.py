@@ -47,7 +47,7 @@ EXPECTED_VARIABLES = {
     *(f"q0[{j}]" for j in range(1, 5)),
     *(f"qd0[{j}]" for j in range(1, 5)),
     "force",
-    "w_stop", "v_stop", "impacts", "t_last_impact", "sticking", "lambda",
+    "w_stop", "v_stop", "impacts", "t_last_impact", "sticking", "sticks", "stuck_time", "lambda",
     *(f"q[{j}]" for j in range(1, 5)),
     *(f"qd[{j}]" for j in range(1, 5)),
     "energy",

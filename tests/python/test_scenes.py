@@ -30,7 +30,7 @@ SCENES = {
 def modal(n, *patterns):
     return {p.format(j=j) for p in patterns for j in range(1, n + 1)}
 
-STOP_OUTPUTS = {"w", "v", "impacts", "t_last_impact", "sticking", "lambda", "impulse"}
+STOP_OUTPUTS = {"w", "v", "impacts", "t_last_impact", "sticking", "sticks", "stuck_time", "lambda", "impulse"}
 SPRING_STOP_OUTPUTS = {"w", "v", "force", "penetration", "contact", "contacts", "t_last_contact", "E_stored", "E_dissipated", "impulse"}
 
 # What each FMU must expose, written out by hand from the scene descriptions.

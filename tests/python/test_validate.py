@@ -69,9 +69,9 @@ def test_causality_variability_and_types():
     assert (v["force"].causality, v["force"].type) == ("input", "Real")
     for n in EXPECTED_VARIABLES - TUNABLE - FIXED - {"force"}:
         assert v[n].causality == "output", n
-    assert v["impacts"].type == "Integer"
+    assert v["impacts"].type == v["sticks"].type == "Integer"
     assert v["sticking"].type == "Boolean"
-    for n in ("w_stop", "v_stop", "t_last_impact", "lambda", "energy"):
+    for n in ("w_stop", "v_stop", "t_last_impact", "stuck_time", "lambda", "energy"):
         assert v[n].type == "Real", n
 
 
