@@ -26,7 +26,7 @@ from conftest import FMU_DIR, ROOT
 PINNED = FMU_DIR / "PinnedBeamStop.fmu"
 OMEGA = 0.7 * math.pi ** 2
 GAPS = [0.1, 0.4, 0.7, 1.0, 1.3, 1.6]
-DISCARD, RECORD, SPP = 40, 12, 8
+DISCARD, RECORD, SPP = 40, 12, 16
 BASE = ["--set", "F=72", "--set", "omega=0.7*pi**2", "--set", "eps=1e-3",
         "--discard", str(DISCARD), "--record", str(RECORD), "--samples-per-period", str(SPP), "--no-plots"]
 
@@ -119,9 +119,15 @@ def test_each_point_matches_a_plain_fmpy_loop(gap_sweep):
         impacts = samples[-1][2] - samples[0][2]
         assert r["impacts"] == impacts and r["impacts_per_period"] == impacts / RECORD
         assert r["period"] == smallest_period(strob_w, strob_v, (1e-4 * np.ptp(w), 1e-4 * np.ptp(v)))
-        # the peak: at least the finest sample, and the 8-sample Hermite peak is within 1e-3 of it
-        assert r["peak"] >= np.max(w[::fine // SPP]) - 1e-12
-        assert abs(r["peak"] - np.max(w)) < 1e-3 * np.ptp(w)
+        # the peak: at least the largest of its own samples, never above the stop; where the 64-sample
+        # maximum lies away from impacts, the Hermite-refined peak is within 1e-4 of the range from it
+        # (an impact inside a sampling interval is seen through the samples around it only)
+        assert np.max(w[::fine // SPP]) - 1e-12 <= r["peak"] <= max(np.max(w), d) + 1e-12
+        k = int(np.argmax(w))
+        counts = [s[2] for s in samples]
+        if counts[max(k - 4, 0)] == counts[min(k + 4, len(counts) - 1)]:
+            assert r["peak"] >= np.max(w) - 1e-4 * np.ptp(w)
+            assert r["peak"] - np.max(w) < 1e-4 * np.ptp(w)
         # sticking: the tool's measure against the flag sampled 64 times per period
         stuck = np.array([s[3] for s in samples], bool)
         if stuck.any():

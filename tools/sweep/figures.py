@@ -45,7 +45,8 @@ def sweep(client, name, fmu, params, sets, discard, record, **kw):
     info = read_fmu(FMU / f"{fmu}.fmu")
     spec = spec_mod.build(info, params, sets, discard, record, **kw)
     started = time.perf_counter()
-    meta = run_sweep(spec, WORK / name, client, progress=sys.stderr.isatty(),
+    # a figure is computed anew each time (its .md quotes the run's time); `scripts/sweep` resumes
+    meta = run_sweep(spec, WORK / name, client, progress=sys.stderr.isatty(), restart=True,
                      command=f"scripts/sweep-figures {name}")
     table, _ = read_points(WORK / name / "points.parquet")
     rows = [r for r in table.to_pylist() if not r["error"]]
@@ -63,7 +64,7 @@ def write_csv(name, rows, columns):
 
 def write_md(name, title, command, statements, meta, wall):
     lines = [f"# {title}", "", f"Command: `{command}` ({meta['points_computed']} points computed in {wall:.1f} s "
-             f"on {meta['workers']} workers; sticking from the {meta['sticking_from']}). "
+             f"on {meta['workers']} workers; sticking: {meta['sticking_from']}). "
              f"Table: target/sweeps/{name}/points.parquet (not committed); "
              f"figure: [{name}.png]({name}.png), per point: [{name}.csv]({name}.csv).", "",
              "| the seed says | the sweep shows |", "|---|---|"]

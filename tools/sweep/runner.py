@@ -34,7 +34,8 @@ class Plan:
     refs: dict             # name -> value reference of everything read or set
     output: str
     rate: str | None
-    counters: tuple        # Integer outputs counting impacts / contacts
+    counters: tuple        # Integer outputs counting impacts (rigid stops, first) / contacts
+    rigid_counters: int    # how many of them are rigid stops' impacts (the velocity jumps)
     sticking: tuple        # Boolean flags (used when there is no stuck time)
     stuck_times: tuple     # Real: total time held on a stop
     sticks: tuple          # Integer: stick onsets
@@ -50,7 +51,8 @@ class Plan:
 def plan_for(spec) -> Plan:
     info = spec.info
     rigid = [s for s in info.stops if s.rigid]
-    counters = tuple(s.counter for s in info.stops if s.counter)
+    counters = tuple(s.counter for s in rigid if s.counter) + tuple(s.counter for s in info.stops
+                                                                  if s.counter and not s.rigid)
     stuck = tuple(s.stuck_time for s in rigid if s.stuck_time)
     sticks = tuple(s.sticks for s in rigid if s.sticks)
     flags = tuple(s.sticking for s in rigid if s.sticking) if not stuck else ()
@@ -58,7 +60,7 @@ def plan_for(spec) -> Plan:
     if spec.rate:
         names.add(spec.rate)
     return Plan(info.guid, info.model_identifier, {n: info.value_references[n] for n in names},
-                spec.output, spec.rate, counters, flags, stuck, sticks,
+                spec.output, spec.rate, counters, sum(1 for s in rigid if s.counter), flags, stuck, sticks,
                 tuple(n for n, p in info.parameters.items() if p.tunable), spec.forcing, spec.discard, spec.record,
                 spec.samples_per_period, spec.period_tol, spec.max_period)
 
@@ -197,7 +199,8 @@ def record_point(inst: Instance, t0: float, period: float) -> dict:
         flags[k] = any(fl)
     nc = len(p.counters)
     impacts = int((counts[-1, :nc] - counts[0, :nc]).sum())
-    smooth = np.all(counts[1:, :nc] == counts[:-1, :nc], axis=1)
+    nr_ = p.rigid_counters          # a rigid impact makes the rate jump: no interpolation across it
+    smooth = np.all(counts[1:, :nr_] == counts[:-1, :nr_], axis=1)
     found = measures.maxima(t, y, v, smooth)
     span = p.record * period
     if p.stuck_times:
