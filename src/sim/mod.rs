@@ -25,7 +25,7 @@ use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
 use crate::solve::functional::NOISE;
-use crate::solve::lti::{CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
+use crate::solve::lti::{CoupledSample, CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
 use crate::solve::{DerivativeBounds, FreeDynamics, FreeSegment, Functional, Jet, ModalForcing, ModalState};
 
 /// What happened at an event.
@@ -968,7 +968,7 @@ impl Simulation {
                 .iter()
                 .map(|ch| {
                     let h = self.watched_functional(ch.stop, ch.watch).expect("no held stop with mode transfer");
-                    segment.project_functional(&system, &h)
+                    segment.project_functional(&system, &forcing, &h)
                 })
                 .collect();
             let reactions = vec![None; self.model.stops.len()];
@@ -1020,7 +1020,7 @@ impl Simulation {
                     // Admissible while the stop pushes the beam away: -side lambda >= 0.
                     None => reactions[ch.stop].clone().expect("held").scaled(-self.model.stops[ch.stop].geometry.side),
                 };
-                segment.project_functional(&system, &h)
+                segment.project_functional(&system, &forcing, &h)
             })
             .collect();
         self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
@@ -1052,7 +1052,7 @@ impl Simulation {
     fn probe(&self, t: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Probe {
         let mut scan = Scan::new(self.departing_flags());
         let tol = self.model.event_tolerance;
-        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, .. } = buffers;
+        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, .. } = buffers;
         match &self.segment {
             Segment::Free { segment: seg, functions } => {
                 seg.state_and_increment_at(&self.dynamics, t, st, increment);
@@ -1082,17 +1082,20 @@ impl Simulation {
             }
             Segment::Integrated(_) => unreachable!("integrated phases search on their own steps"),
             Segment::Coupled { system, forcing, segment, events, .. } => {
-                segment.state_at(system, t, st);
-                let sample = segment.sample(system, t);
-                let mut coords = None;
+                // The modal state itself is only formed at events (`scan_to`).
+                segment.sample_into(system, forcing, t, coupled);
+                let mut coords_ready = false;
                 for (c, p) in events.iter().enumerate() {
-                    let mut jet = segment.jet(system, forcing, p, &sample);
+                    let mut jet = segment.jet(p, coupled);
                     if self.channels[c].watch != Watch::Reaction {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
                     scan.consider(c, jet, || {
-                        let coords = coords.get_or_insert_with(|| segment.coordinate_bounds(system, &sample, self.tau_max));
-                        segment.bounds(forcing, p, coords, self.tau_max)
+                        if !coords_ready {
+                            segment.coordinate_bounds_into(system, coupled, self.tau_max, coords);
+                            coords_ready = true;
+                        }
+                        segment.bounds(p, coords, self.tau_max)
                     });
                 }
             }
@@ -1196,6 +1199,10 @@ impl Simulation {
             if count > self.model.max_events_per_step {
                 self.stop_at(l);
                 return Err(SimError::TooManyEvents { time: l, count });
+            }
+            if matches!(self.segment, Segment::Coupled { .. }) {
+                // Coupled probes sample the complex coordinates only.
+                self.state_at(l, st);
             }
             self.handle_events(l, st.clone(), at_zero)?;
             if std::mem::take(&mut self.basis_changed) {
@@ -1479,12 +1486,21 @@ struct ProbeBuffers {
     jet: ModalJet,
     bounds: ModalBounds,
     increment: Increment,
+    coupled: CoupledSample,
+    coords: Vec<[f64; 7]>,
 }
 
 impl ProbeBuffers {
     fn new(dynamics: &FreeDynamics) -> Self {
         let n = dynamics.oscillators.len();
-        ProbeBuffers { state: ModalState::zeros(n), jet: ModalJet::new(n), bounds: ModalBounds::new(dynamics), increment: Increment::new(n) }
+        ProbeBuffers {
+            state: ModalState::zeros(n),
+            jet: ModalJet::new(n),
+            bounds: ModalBounds::new(dynamics),
+            increment: Increment::new(n),
+            coupled: CoupledSample::default(),
+            coords: Vec::new(),
+        }
     }
 }
 

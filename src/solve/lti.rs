@@ -14,7 +14,7 @@ use nalgebra::{DMatrix, DVector};
 use super::forcing::ModalForcing;
 use super::free::ModalState;
 use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
-use super::oscillator::{exp_divdiff2, phi1, C64};
+use super::oscillator::{exp_divdiff2, expm1_c, phi1, C64};
 
 /// Why a coupled phase could not be set up.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,6 +53,9 @@ pub struct CoupledSystem {
     eig: DVector<C64>,
     v: DMatrix<C64>,
     v_inv: DMatrix<C64>,
+    /// `1 / L_k` and `|L_k|`, used by every probe.
+    eig_inv: DVector<C64>,
+    eig_abs: Vec<f64>,
 }
 
 impl CoupledSystem {
@@ -154,7 +157,9 @@ impl CoupledSystem {
             v_inv.view_mut((0, n), (2 * n, n)).copy_from(&(vu_inv.columns(n, n) * &qt));
             (eig, v, v_inv)
         };
-        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv })
+        let eig_inv = eig.map(|l| C64::new(1.0, 0.0) / l);
+        let eig_abs = eig.iter().map(|l| l.norm()).collect();
+        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv, eig_inv, eig_abs })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -257,6 +262,12 @@ struct ProjectedHarmonic {
     omega: f64,
     g: DVector<C64>,
     steady: Vec<Option<C64>>,
+    /// `g e^{i W t0}`, and `g e^{i W t0} / (L - i W)` where `L` is far from
+    /// `i W`: then the forced part `g e^{i W t} s phi1((L - i W) s)` is
+    /// `(expm1(L s) - expm1(i W s)) g e^{i W t0} / (L - i W)`, which reuses
+    /// the coordinate's own exponential and one rotation per harmonic.
+    g_rot0: DVector<C64>,
+    direct: Vec<Option<C64>>,
 }
 
 /// The steady response `g / (i W - L)` of `z' = L z + g e^{i W t}`, unless
@@ -270,13 +281,41 @@ fn steady_amplitude(g: C64, eig: C64, omega: f64) -> Option<C64> {
     }
 }
 
-/// The complex coordinates and their loads at one instant.
-#[derive(Clone, Debug)]
+/// `1 / (L - i W)` where the difference `expm1(L s) - expm1(i W s)` keeps
+/// its relative accuracy to within a factor 8 (`|L - i W| > (|L| + |W|) / 8`).
+fn direct_factor(eig: C64, omega: f64) -> Option<C64> {
+    let den = eig - C64::new(0.0, omega);
+    (den.norm() > 0.125 * (eig.norm() + omega.abs())).then(|| C64::new(1.0, 0.0) / den)
+}
+
+/// `|.|_1` of a complex number: between its modulus and sqrt 2 times it,
+/// and cheaper; the sizes that set rounding levels use it.
+fn l1(z: C64) -> f64 {
+    z.re.abs() + z.im.abs()
+}
+
+/// The complex coordinates, their first three derivatives and the modal
+/// loads' at one instant, shared by the jets and bounds of every event
+/// function there. Reused from probe to probe (no allocation).
+#[derive(Clone, Debug, Default)]
 pub struct CoupledSample {
     t: f64,
-    z: DVector<C64>,
-    /// `g^(m)(t)` for m = 0..=2.
-    loads: [DVector<C64>; 3],
+    /// `z^(m)`, m = 0..=3.
+    z: [DVector<C64>; 4],
+    /// The size of the terms summed into `z^(m)`: the rounding it carries.
+    size: [DVector<f64>; 4],
+    /// `d^m f / dt^m`, m = 0..=3.
+    f: [DVector<f64>; 4],
+}
+
+/// Per coordinate, the parts of its derivative bounds that do not change
+/// along a segment: `sum |P| W^m` over the steady responses (m = 0..=4),
+/// `sum |g| W^m` over the near-resonant loads (m = 0..=3), `sum |P|`.
+#[derive(Clone, Copy, Debug, Default)]
+struct BoundTerms {
+    steady: [f64; 5],
+    resonant: [f64; 4],
+    size: f64,
 }
 
 /// The exact motion of a coupled phase from an anchor.
@@ -288,6 +327,7 @@ pub struct CoupledSegment {
     g_const: DVector<C64>,
     const_steady: Vec<Option<C64>>,
     harmonics: Vec<ProjectedHarmonic>,
+    bound_terms: Vec<BoundTerms>,
 }
 
 impl CoupledSegment {
@@ -325,7 +365,9 @@ impl CoupledSegment {
         let mut harmonics = Vec::new();
         let mut push = |omega: f64, g: DVector<C64>| {
             let steady = g.iter().zip(sys.eig.iter()).map(|(g, l)| steady_amplitude(*g, *l, omega)).collect();
-            harmonics.push(ProjectedHarmonic { omega, g, steady });
+            let g_rot0 = &g * C64::from_polar(1.0, omega * t0);
+            let direct = g_rot0.iter().zip(sys.eig.iter()).map(|(g, l)| direct_factor(*l, omega).map(|f| g * f)).collect();
+            harmonics.push(ProjectedHarmonic { omega, g, steady, g_rot0, direct });
         };
         for h in &forcing.harmonics {
             // Re(b e^{i W t}) = (b e^{i W t} + conj(b) e^{-i W t}) / 2.
@@ -334,27 +376,63 @@ impl CoupledSegment {
             push(h.omega, lift(by.map(|b| b * half)));
             push(-h.omega, lift(by.map(|b| b.conj() * half)));
         }
-        let const_steady = g_const.iter().zip(sys.eig.iter()).map(|(g, l)| steady_amplitude(*g, *l, 0.0)).collect();
-        CoupledSegment { t0, q_c, z0, g_const, const_steady, harmonics }
+        let const_steady: Vec<Option<C64>> = g_const.iter().zip(sys.eig.iter()).map(|(g, l)| steady_amplitude(*g, *l, 0.0)).collect();
+        let bound_terms = (0..2 * n)
+            .map(|k| {
+                let mut terms = BoundTerms::default();
+                match const_steady[k] {
+                    Some(p) => terms.size += p.norm(),
+                    None => terms.resonant[0] += g_const[k].norm(),
+                }
+                for h in &harmonics {
+                    let (mut a, target): (f64, &mut [f64]) = match h.steady[k] {
+                        Some(p) => {
+                            terms.size += p.norm();
+                            (p.norm(), &mut terms.steady)
+                        }
+                        None => (h.g[k].norm(), &mut terms.resonant),
+                    };
+                    for m in target.iter_mut() {
+                        *m += a;
+                        a *= h.omega.abs();
+                    }
+                }
+                terms
+            })
+            .collect();
+        CoupledSegment { t0, q_c, z0, g_const, const_steady, harmonics, bound_terms }
     }
 
     /// Complex modal coordinates at time `t`.
     fn z_at(&self, sys: &CoupledSystem, t: f64) -> DVector<C64> {
+        let mut z = DVector::zeros(sys.eig.len());
+        self.z_into(sys, t, &mut z);
+        z
+    }
+
+    /// `z(t) = e^{L s} z0 + g s phi1(L s) + sum_h g_h e^{i W t} s phi1((L - i W) s)`
+    /// (`s = t - t0`) into `out`, with one complex `expm1` per coordinate
+    /// and one rotation per harmonic; the near-resonant terms keep `phi1`.
+    fn z_into(&self, sys: &CoupledSystem, t: f64, out: &mut DVector<C64>) {
         let s = t - self.t0;
-        let mut z = DVector::from_fn(sys.eig.len(), |k, _| {
+        let rotations: [C64; 8] = std::array::from_fn(|i| self.harmonics.get(i).map_or(C64::new(0.0, 0.0), |h| expm1_c(C64::new(0.0, h.omega * s))));
+        for k in 0..sys.eig.len() {
             let l = sys.eig[k];
             let ls = l * s;
-            ls.exp() * self.z0[k] + self.g_const[k] * phi1(ls) * s
-        });
-        for h in &self.harmonics {
-            let rot0 = C64::from_polar(1.0, h.omega * self.t0);
-            let rot = C64::from_polar(1.0, h.omega * s);
-            for k in 0..z.len() {
-                let mu = (sys.eig[k] - C64::new(0.0, h.omega)) * s;
-                z[k] += h.g[k] * rot0 * rot * phi1(mu) * s;
+            let e = expm1_c(ls);
+            let forced_const = if ls.norm() < 1e-5 { self.g_const[k] * phi1(ls) * s } else { self.g_const[k] * e * sys.eig_inv[k] };
+            let mut z = self.z0[k] + e * self.z0[k] + forced_const;
+            for (i, h) in self.harmonics.iter().enumerate() {
+                match (h.direct[k], rotations.get(i)) {
+                    (Some(c), Some(r)) => z += c * (e - r),
+                    _ => {
+                        let mu = (l - C64::new(0.0, h.omega)) * s;
+                        z += h.g_rot0[k] * C64::from_polar(1.0, h.omega * s) * phi1(mu) * s;
+                    }
+                }
             }
+            out[k] = z;
         }
-        z
     }
 
     /// `int_{t0}^{t} q ds`, exact: each complex coordinate integrates to
@@ -379,16 +457,6 @@ impl CoupledSegment {
         &self.q_c * s + &sys.z * y
     }
 
-    /// Loads on the complex coordinates at time `t`, and their derivatives.
-    fn load_derivative(&self, t: f64, m: u32) -> DVector<C64> {
-        let mut g = if m == 0 { self.g_const.clone() } else { DVector::zeros(self.g_const.len()) };
-        for h in &self.harmonics {
-            let factor = C64::from_polar(1.0, h.omega * t) * C64::new(0.0, h.omega).powu(m);
-            g += h.g.map(|x| x * factor);
-        }
-        g
-    }
-
     pub fn state_at(&self, sys: &CoupledSystem, t: f64, out: &mut ModalState) {
         let n = sys.n_free();
         let x = &sys.v * self.z_at(sys, t);
@@ -398,8 +466,9 @@ impl CoupledSegment {
         out.qd = &sys.z * yd;
     }
 
-    /// A functional in the complex coordinates: `h = offset + Re(c . z) + f-part`.
-    pub fn project_functional(&self, sys: &CoupledSystem, h: &Functional) -> ProjectedFunctional {
+    /// A functional in the complex coordinates: `h = offset + Re(c . z) + f-part`,
+    /// with the sizes its bounds use (constant along the segment).
+    pub fn project_functional(&self, sys: &CoupledSystem, forcing: &ModalForcing, h: &Functional) -> ProjectedFunctional {
         let n = sys.n_free();
         let aq = sys.z.transpose() * &h.q;
         let bq = h.qd.as_ref().map(|b| sys.z.transpose() * b);
@@ -413,116 +482,119 @@ impl CoupledSegment {
             }
             s
         });
-        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, f: h.f.clone() }
+        let c_abs = c.iter().map(|c| c.norm()).collect();
+        // sum_j |c_j| max |f_j^(m)|, m = 0..=4.
+        let load_bounds = std::array::from_fn(|m| {
+            h.f.as_ref().map_or(0.0, |cf| cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum())
+        });
+        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, c_abs, f: h.f.clone(), load_bounds }
     }
 
-    /// The complex coordinates and loads at time `t`, shared by the jets and
-    /// bounds of every event function there.
-    pub fn sample(&self, sys: &CoupledSystem, t: f64) -> CoupledSample {
-        CoupledSample { t, z: self.z_at(sys, t), loads: std::array::from_fn(|m| self.load_derivative(t, m as u32)) }
+    /// The complex coordinates, their derivatives `z^(m) = L z^(m-1) + g^(m-1)`
+    /// and the loads' at time `t`, into `out` (resized on first use).
+    pub fn sample_into(&self, sys: &CoupledSystem, forcing: &ModalForcing, t: f64, out: &mut CoupledSample) {
+        let len = sys.eig.len();
+        if out.z[0].len() != len || out.f[0].len() != forcing.len() {
+            *out = CoupledSample {
+                t,
+                z: std::array::from_fn(|_| DVector::zeros(len)),
+                size: std::array::from_fn(|_| DVector::zeros(len)),
+                f: std::array::from_fn(|_| DVector::zeros(forcing.len())),
+            };
+        }
+        out.t = t;
+        self.z_into(sys, t, &mut out.z[0]);
+        // e^{i W t} (i W)^m per harmonic, m = 0..=2.
+        let factors: [[C64; 3]; 8] = std::array::from_fn(|i| {
+            let Some(h) = self.harmonics.get(i) else { return [C64::new(0.0, 0.0); 3] };
+            let r = C64::from_polar(1.0, h.omega * t);
+            let iw = C64::new(0.0, h.omega);
+            [r, r * iw, r * iw * iw]
+        });
+        let CoupledSample { z, size, f, .. } = out;
+        for k in 0..len {
+            let l = sys.eig[k];
+            let la = sys.eig_abs[k];
+            size[0][k] = l1(z[0][k]);
+            for m in 1..4 {
+                let mut g = if m == 1 { self.g_const[k] } else { C64::new(0.0, 0.0) };
+                for (i, h) in self.harmonics.iter().enumerate() {
+                    let factor = match factors.get(i) {
+                        Some(fs) => fs[m - 1],
+                        None => C64::from_polar(1.0, h.omega * t) * C64::new(0.0, h.omega).powu(m as u32 - 1),
+                    };
+                    g += h.g[k] * factor;
+                }
+                z[m][k] = l * z[m - 1][k] + g;
+                size[m][k] = la * size[m - 1][k] + l1(g);
+            }
+        }
+        forcing.derivatives(t, f);
     }
 
     /// `h, h', h'', h'''` at the sample's time.
-    pub fn jet(&self, sys: &CoupledSystem, forcing: &ModalForcing, p: &ProjectedFunctional, sample: &CoupledSample) -> Jet {
-        let t = sample.t;
+    pub fn jet(&self, p: &ProjectedFunctional, sample: &CoupledSample) -> Jet {
         let mut jet = Jet::default();
-        let mut zm = sample.z.clone();
-        // The size of the terms summed into z^(m): the rounding it carries.
-        let mut zsize: Vec<f64> = zm.iter().map(|z| z.norm()).collect();
-        let mut fbuf = DVector::zeros(forcing.len());
         for m in 0..4 {
-            if m > 0 {
-                // z^(m) = L z^(m-1) + g^(m-1)
-                for k in 0..zm.len() {
-                    zm[k] = sys.eig[k] * zm[k] + sample.loads[m - 1][k];
-                    zsize[k] = sys.eig[k].norm() * zsize[k] + sample.loads[m - 1][k].norm();
-                }
-            }
             let mut value = if m == 0 { p.offset } else { 0.0 };
             let mut size = value.abs();
-            for k in 0..zm.len() {
-                let term = p.c[k] * zm[k];
-                value += term.re;
-                size += p.c[k].norm() * zsize[k];
+            for k in 0..p.c.len() {
+                value += (p.c[k] * sample.z[m][k]).re;
+                size += p.c_abs[k] * sample.size[m][k];
             }
             if let Some(cf) = &p.f {
-                forcing.derivative(t, m as u32, &mut fbuf);
-                value += cf.dot(&fbuf);
-                size += cf.iter().zip(fbuf.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+                value += cf.dot(&sample.f[m]);
+                size += cf.iter().zip(sample.f[m].iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
             }
             jet.d[m] = value;
             jet.noise[m] = NOISE * size;
         }
-        jet.with_time_uncertainty(t)
+        jet.with_time_uncertainty(sample.t)
     }
 
-    /// Per-coordinate bounds on `|z_k^(m)|`, m = 2..=4, over `[t, t + tau]`.
-    /// Each coordinate is its steady response to the non-resonant loads,
-    /// known exactly, plus a remainder `r' = L r + g_res` with `Re L <= 0`:
-    /// `|r| <= |r(t)| + tau max|g_res|` and
+    /// Per-coordinate bounds on `|z_k^(m)|`, m = 2..=4, over `[t, t + tau]`,
+    /// into `out`. Each coordinate is its steady response to the non-resonant
+    /// loads, known exactly, plus a remainder `r' = L r + g_res` with
+    /// `Re L <= 0`: `|r| <= |r(t)| + tau max|g_res|` and
     /// `r^(m) = L^m r + sum_i L^(m-1-i) g_res^(i)`.
-    pub fn coordinate_bounds(&self, sys: &CoupledSystem, sample: &CoupledSample, tau: f64) -> Vec<[f64; 7]> {
+    pub fn coordinate_bounds_into(&self, sys: &CoupledSystem, sample: &CoupledSample, tau: f64, out: &mut Vec<[f64; 7]>) {
         let t = sample.t;
-        let rotations: Vec<C64> = self.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t)).collect();
-        (0..sample.z.len())
-            .map(|k| {
-                let l = sys.eig[k].norm();
-                let mut zp = C64::new(0.0, 0.0);
-                let mut steady = [0.0f64; 5];
-                let mut resonant = [0.0f64; 4];
-                let mut size = 0.0;
-                match self.const_steady[k] {
-                    Some(p) => {
-                        zp += p;
-                        size += p.norm();
-                    }
-                    None => resonant[0] += self.g_const[k].norm(),
+        let rotations: [C64; 8] = std::array::from_fn(|i| self.harmonics.get(i).map_or(C64::new(0.0, 0.0), |h| C64::from_polar(1.0, h.omega * t)));
+        out.clear();
+        for k in 0..sample.z[0].len() {
+            let l = sys.eig_abs[k];
+            let terms = &self.bound_terms[k];
+            let mut zp = self.const_steady[k].unwrap_or(C64::new(0.0, 0.0));
+            for (i, h) in self.harmonics.iter().enumerate() {
+                if let Some(p) = h.steady[k] {
+                    let rot = rotations.get(i).copied().unwrap_or_else(|| C64::from_polar(1.0, h.omega * t));
+                    zp += p * rot;
                 }
-                for (h, rot) in self.harmonics.iter().zip(&rotations) {
-                    match h.steady[k] {
-                        Some(p) => {
-                            zp += p * rot;
-                            size += p.norm();
-                            let mut a = p.norm();
-                            for m in steady.iter_mut() {
-                                *m += a;
-                                a *= h.omega.abs();
-                            }
-                        }
-                        None => {
-                            let mut a = h.g[k].norm();
-                            for m in resonant.iter_mut() {
-                                *m += a;
-                                a *= h.omega.abs();
-                            }
-                        }
-                    }
+            }
+            let growth = if sys.eig[k].re > 0.0 { (sys.eig[k].re * tau).exp() } else { 1.0 };
+            let r = growth * ((sample.z[0][k] - zp).norm() + NOISE * terms.size + terms.resonant[0] * tau);
+            let powers = [1.0, l, l * l, l * l * l, l * l * l * l];
+            let mut bounds = [0.0; 7];
+            for (slot, m) in (2..5).enumerate() {
+                let mut b = powers[m] * r;
+                for i in 0..m {
+                    b += powers[m - 1 - i] * terms.resonant[i];
                 }
-                let growth = (sys.eig[k].re.max(0.0) * tau).exp();
-                let r = growth * ((sample.z[k] - zp).norm() + NOISE * size + resonant[0] * tau);
-                let mut out = [0.0; 7];
-                for (slot, m) in (2..5).enumerate() {
-                    let mut b = l.powi(m as i32) * r;
-                    for i in 0..m {
-                        b += l.powi((m - 1 - i) as i32) * resonant[i];
-                    }
-                    out[slot] = b + steady[m];
-                }
-                // The rounding level these bounds carry for the coordinate
-                // and its first three derivatives.
-                for m in 0..4 {
-                    out[3 + m] = growth * NOISE * size * l.powi(m as i32);
-                }
-                out
-            })
-            .collect()
+                bounds[slot] = b + terms.steady[m];
+            }
+            // The rounding level these bounds carry for the coordinate
+            // and its first three derivatives.
+            for m in 0..4 {
+                bounds[3 + m] = growth * NOISE * terms.size * powers[m];
+            }
+            out.push(bounds);
+        }
     }
 
     /// Bounds on `|h''|, |h'''|, |h''''|` over `[t, t + tau]`.
-    pub fn bounds(&self, forcing: &ModalForcing, p: &ProjectedFunctional, coords: &[[f64; 7]], tau: f64) -> DerivativeBounds {
+    pub fn bounds(&self, p: &ProjectedFunctional, coords: &[[f64; 7]], tau: f64) -> DerivativeBounds {
         let mut out = DerivativeBounds { tau, m: [0.0; 3], floor: [0.0; 4] };
-        for (c, b) in p.c.iter().zip(coords) {
-            let c = c.norm();
+        for (c, b) in p.c_abs.iter().zip(coords) {
             for slot in 0..3 {
                 out.m[slot] += c * b[slot];
             }
@@ -530,13 +602,11 @@ impl CoupledSegment {
                 out.floor[m] += c * b[3 + m];
             }
         }
-        if let Some(cf) = &p.f {
-            for (slot, m) in (2..5).enumerate() {
-                out.m[slot] += cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum::<f64>();
-            }
-            for m in 0..4 {
-                out.floor[m] += NOISE * cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum::<f64>();
-            }
+        for (slot, m) in (2..5).enumerate() {
+            out.m[slot] += p.load_bounds[m];
+        }
+        for m in 0..4 {
+            out.floor[m] += NOISE * p.load_bounds[m];
         }
         out
     }
@@ -547,7 +617,11 @@ impl CoupledSegment {
 pub struct ProjectedFunctional {
     offset: f64,
     c: DVector<C64>,
+    /// `|c_k|`.
+    c_abs: Vec<f64>,
     f: Option<DVector<f64>>,
+    /// `sum_j |f_j| max |d^m f_j / dt^m|`, m = 0..=4: the load part's bounds.
+    load_bounds: [f64; 5],
 }
 
 #[cfg(test)]
