@@ -119,42 +119,64 @@ impl CoupledSystem {
             });
             let e = a.eigen().map_err(|e| LtiError::Eigen(format!("{e:?}")))?;
             let s = e.S();
-            let u = e.U();
             let eig = DVector::from_fn(2 * n, |k, _| C64::new(s[k].re, s[k].im));
-            let mut vu = DMatrix::from_fn(2 * n, 2 * n, |i, j| C64::new(u[(i, j)].re, u[(i, j)].im));
-            for mut col in vu.column_iter_mut() {
-                let norm = col.norm();
-                col /= C64::new(norm, 0.0);
+            // The dense products below run in faer (blocked, O(n^3) once per
+            // phase); the result is handed on as nalgebra matrices.
+            type Cx = faer::c64;
+            let mut vu = e.U().to_owned();
+            for j in 0..2 * n {
+                let norm = vu.col(j).norm_l2();
+                for i in 0..2 * n {
+                    vu[(i, j)] = vu[(i, j)] / norm;
+                }
             }
-            let vu_inv = vu.clone().try_inverse().ok_or(LtiError::IllConditioned(f64::INFINITY))?;
-            let cond = vu.norm() * vu_inv.norm();
+            let vu_inv = faer::linalg::solvers::DenseSolveCore::inverse(&vu.partial_piv_lu());
+            let cond = vu.norm_l2() * vu_inv.norm_l2();
             if !(cond < 1e10) {
                 return Err(LtiError::IllConditioned(cond));
             }
             // The same for the first-order eigenvalues: the two-sided
             // Rayleigh quotient `(l A r) / (l r)` with the left eigenvectors
-            // (rows of the inverse) is second-order accurate.
-            let au = DMatrix::from_fn(2 * n, 2 * n, |i, j| C64::new(a[(i, j)], 0.0));
+            // (rows of the inverse) is second-order accurate. `A U` from the
+            // blocks: `[W U_b; -W U_t - D_q U_b]`.
+            let dq_c = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(dq[(i, j)], 0.0));
+            let damped = &dq_c * vu.subrows(n, n);
+            let au = faer::Mat::<Cx>::from_fn(2 * n, 2 * n, |i, j| {
+                if i < n {
+                    vu[(i + n, j)] * w_freq[i]
+                } else {
+                    -(vu[(i - n, j)] * w_freq[i - n]) - damped[(i - n, j)]
+                }
+            });
             let eig = DVector::from_fn(2 * n, |k, _| {
-                let (l, r) = (vu_inv.row(k), vu.column(k));
-                let lr = (l * r)[(0, 0)];
-                let refined = (l * (&au * r))[(0, 0)] / lr;
+                let (mut lr, mut lar) = (Cx::new(0.0, 0.0), Cx::new(0.0, 0.0));
+                for i in 0..2 * n {
+                    lr += vu_inv[(k, i)] * vu[(i, k)];
+                    lar += vu_inv[(k, i)] * au[(i, k)];
+                }
+                let refined = lar / lr;
                 if refined.re.is_finite() && refined.im.is_finite() && lr.norm() > 0.5 {
-                    refined
+                    C64::new(refined.re, refined.im)
                 } else {
                     eig[k]
                 }
             });
-            let qc = q.map(|x| C64::new(x, 0.0));
-            let top = DMatrix::from_fn(n, n, |i, j| qc[(i, j)] / w_freq[j]);
-            let mut v = DMatrix::zeros(2 * n, 2 * n);
-            v.view_mut((0, 0), (n, 2 * n)).copy_from(&(&top * vu.rows(0, n)));
-            v.view_mut((n, 0), (n, 2 * n)).copy_from(&(&qc * vu.rows(n, n)));
-            let qt = qc.transpose();
-            let scaled_qt = DMatrix::from_fn(n, n, |i, j| qt[(i, j)] * w_freq[i]);
-            let mut v_inv = DMatrix::zeros(2 * n, 2 * n);
-            v_inv.view_mut((0, 0), (2 * n, n)).copy_from(&(vu_inv.columns(0, n) * &scaled_qt));
-            v_inv.view_mut((0, n), (2 * n, n)).copy_from(&(vu_inv.columns(n, n) * &qt));
+            let qc = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(i, j)], 0.0));
+            let top = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(i, j)] / w_freq[j], 0.0));
+            let v_top = &top * vu.subrows(0, n);
+            let v_bottom = &qc * vu.subrows(n, n);
+            let scaled_qt = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(j, i)] * w_freq[i], 0.0));
+            let qt = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(j, i)], 0.0));
+            let v_inv_left = vu_inv.subcols(0, n) * &scaled_qt;
+            let v_inv_right = vu_inv.subcols(n, n) * &qt;
+            let v = DMatrix::from_fn(2 * n, 2 * n, |i, j| {
+                let x = if i < n { v_top[(i, j)] } else { v_bottom[(i - n, j)] };
+                C64::new(x.re, x.im)
+            });
+            let v_inv = DMatrix::from_fn(2 * n, 2 * n, |i, j| {
+                let x = if j < n { v_inv_left[(i, j)] } else { v_inv_right[(i, j - n)] };
+                C64::new(x.re, x.im)
+            });
             (eig, v, v_inv)
         };
         let eig_inv = eig.map(|l| C64::new(1.0, 0.0) / l);
