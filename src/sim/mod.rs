@@ -1081,9 +1081,9 @@ impl Simulation {
                 }
             }
             Segment::Integrated(_) => unreachable!("integrated phases search on their own steps"),
-            Segment::Coupled { system, forcing, segment, events, .. } => {
+            Segment::Coupled { system, segment, events, .. } => {
                 // The modal state itself is only formed at events (`scan_to`).
-                segment.sample_into(system, forcing, t, coupled);
+                segment.sample_into(system, t, coupled);
                 let mut coords_ready = false;
                 for (c, p) in events.iter().enumerate() {
                     let mut jet = segment.jet(p, coupled);

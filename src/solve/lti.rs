@@ -296,7 +296,7 @@ struct ProjectedHarmonic {
 /// the denominator is small (resonance), where it would amplify rounding.
 fn steady_amplitude(g: C64, eig: C64, omega: f64) -> Option<C64> {
     let den = C64::new(0.0, omega) - eig;
-    if den.norm() > 1e-3 * (eig.norm() + omega.abs()) {
+    if modulus(den) > 1e-3 * (modulus(eig) + omega.abs()) {
         Some(g / den)
     } else {
         None
@@ -307,7 +307,13 @@ fn steady_amplitude(g: C64, eig: C64, omega: f64) -> Option<C64> {
 /// its relative accuracy to within a factor 8 (`|L - i W| > (|L| + |W|) / 8`).
 fn direct_factor(eig: C64, omega: f64) -> Option<C64> {
     let den = eig - C64::new(0.0, omega);
-    (den.norm() > 0.125 * (eig.norm() + omega.abs())).then(|| C64::new(1.0, 0.0) / den)
+    (modulus(den) > 0.125 * (modulus(eig) + omega.abs())).then(|| C64::new(1.0, 0.0) / den)
+}
+
+/// `|z|` without `hypot`'s guard against overflow (the coordinates and
+/// eigenvalues here are far from it).
+fn modulus(z: C64) -> f64 {
+    (z.re * z.re + z.im * z.im).sqrt()
 }
 
 /// `|.|_1` of a complex number: between its modulus and sqrt 2 times it,
@@ -326,8 +332,8 @@ pub struct CoupledSample {
     z: [DVector<C64>; 4],
     /// The size of the terms summed into `z^(m)`: the rounding it carries.
     size: [DVector<f64>; 4],
-    /// `d^m f / dt^m`, m = 0..=3.
-    f: [DVector<f64>; 4],
+    /// `(W, e^{i W t})` per harmonic of the segment's loads.
+    rotations: Vec<(f64, C64)>,
 }
 
 /// Per coordinate, the parts of its derivative bounds that do not change
@@ -378,10 +384,9 @@ impl CoupledSegment {
         let x0 = DVector::from_fn(2 * n, |i, _| C64::new(if i < n { y0[i] } else { yd0[i - n] }, 0.0));
         let z0 = &sys.v_inv * x0;
         // Loads on y: Z^T (f(t) - K q_c), entering the velocity half.
-        let lift = |fy: DVector<C64>| -> DVector<C64> {
-            let x = DVector::from_fn(2 * n, |i, _| if i < n { C64::new(0.0, 0.0) } else { fy[i - n] });
-            &sys.v_inv * x
-        };
+        // (only the velocity half of the state is loaded: the right half of V^-1)
+        let v_inv_loads = sys.v_inv.columns(n, n);
+        let lift = |fy: DVector<C64>| -> DVector<C64> { &v_inv_loads * fy };
         let c = &zt * (&forcing.constant - origin_force);
         let g_const = lift(c.map(|x| C64::new(x, 0.0)));
         let mut harmonics = Vec::new();
@@ -509,49 +514,59 @@ impl CoupledSegment {
         let load_bounds = std::array::from_fn(|m| {
             h.f.as_ref().map_or(0.0, |cf| cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum())
         });
-        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, c_abs, f: h.f.clone(), load_bounds }
+        let f_const = h.f.as_ref().map_or(0.0, |cf| cf.dot(&forcing.constant));
+        let f_harmonics = match &h.f {
+            Some(cf) => forcing.harmonics.iter().map(|hm| hm.amplitude.iter().zip(cf.iter()).map(|(b, c)| b * *c).sum()).collect(),
+            None => Vec::new(),
+        };
+        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, c_abs, f: h.f.clone(), f_const, f_harmonics, load_bounds }
     }
 
     /// The complex coordinates, their derivatives `z^(m) = L z^(m-1) + g^(m-1)`
     /// and the loads' at time `t`, into `out` (resized on first use).
-    pub fn sample_into(&self, sys: &CoupledSystem, forcing: &ModalForcing, t: f64, out: &mut CoupledSample) {
+    pub fn sample_into(&self, sys: &CoupledSystem, t: f64, out: &mut CoupledSample) {
         let len = sys.eig.len();
-        if out.z[0].len() != len || out.f[0].len() != forcing.len() {
+        if out.z[0].len() != len {
             *out = CoupledSample {
                 t,
                 z: std::array::from_fn(|_| DVector::zeros(len)),
                 size: std::array::from_fn(|_| DVector::zeros(len)),
-                f: std::array::from_fn(|_| DVector::zeros(forcing.len())),
+                rotations: Vec::with_capacity(self.harmonics.len()),
             };
         }
         out.t = t;
         self.z_into(sys, t, &mut out.z[0]);
-        // e^{i W t} (i W)^m per harmonic, m = 0..=2.
-        let factors: [[C64; 3]; 8] = std::array::from_fn(|i| {
-            let Some(h) = self.harmonics.get(i) else { return [C64::new(0.0, 0.0); 3] };
-            let r = C64::from_polar(1.0, h.omega * t);
-            let iw = C64::new(0.0, h.omega);
-            [r, r * iw, r * iw * iw]
-        });
-        let CoupledSample { z, size, f, .. } = out;
+        // e^{i W t} per harmonic; (i W)^m applied per coordinate.
+        out.rotations.clear();
+        out.rotations.extend(self.harmonics.iter().map(|h| (h.omega, C64::from_polar(1.0, h.omega * t))));
+        let CoupledSample { z, size, rotations, .. } = out;
+        let [z0, z1, z2, z3] = z;
+        let [s0, s1, s2, s3] = size;
         for k in 0..len {
             let l = sys.eig[k];
             let la = sys.eig_abs[k];
-            size[0][k] = l1(z[0][k]);
-            for m in 1..4 {
-                let mut g = if m == 1 { self.g_const[k] } else { C64::new(0.0, 0.0) };
-                for (i, h) in self.harmonics.iter().enumerate() {
-                    let factor = match factors.get(i) {
-                        Some(fs) => fs[m - 1],
-                        None => C64::from_polar(1.0, h.omega * t) * C64::new(0.0, h.omega).powu(m as u32 - 1),
-                    };
-                    g += h.g[k] * factor;
-                }
-                z[m][k] = l * z[m - 1][k] + g;
-                size[m][k] = la * size[m - 1][k] + l1(g);
+            // g, g', g'' of the loads on coordinate k.
+            let (mut g0, mut g1, mut g2) = (self.g_const[k], C64::new(0.0, 0.0), C64::new(0.0, 0.0));
+            for (h, (omega, rot)) in self.harmonics.iter().zip(rotations.iter()) {
+                let u = h.g[k] * rot;
+                g0 += u;
+                g1 += C64::new(-omega * u.im, omega * u.re);
+                g2 -= u * (omega * omega);
             }
+            let z_0 = z0[k];
+            let z_1 = l * z_0 + g0;
+            let z_2 = l * z_1 + g1;
+            z1[k] = z_1;
+            z2[k] = z_2;
+            z3[k] = l * z_2 + g2;
+            let sz0 = l1(z_0);
+            let sz1 = la * sz0 + l1(g0);
+            let sz2 = la * sz1 + l1(g1);
+            s0[k] = sz0;
+            s1[k] = sz1;
+            s2[k] = sz2;
+            s3[k] = la * sz2 + l1(g2);
         }
-        forcing.derivatives(t, f);
     }
 
     /// `h, h', h'', h'''` at the sample's time.
@@ -564,9 +579,20 @@ impl CoupledSegment {
                 value += (p.c[k] * sample.z[m][k]).re;
                 size += p.c_abs[k] * sample.size[m][k];
             }
-            if let Some(cf) = &p.f {
-                value += cf.dot(&sample.f[m]);
-                size += cf.iter().zip(sample.f[m].iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+            if p.f.is_some() {
+                // c . f^(m) = Re sum_h (c . b_h) (i W)^m e^{i W t} (+ c . f_const)
+                if m == 0 {
+                    value += p.f_const;
+                }
+                // The segment's harmonics come in pairs (+W, -W) per load harmonic.
+                for (a, (omega, rot)) in p.f_harmonics.iter().zip(sample.rotations.iter().step_by(2)) {
+                    let mut x = a * rot;
+                    for _ in 0..m {
+                        x = C64::new(-omega * x.im, omega * x.re);
+                    }
+                    value += x.re;
+                }
+                size += p.load_bounds[m];
             }
             jet.d[m] = value;
             jet.noise[m] = NOISE * size;
@@ -594,7 +620,8 @@ impl CoupledSegment {
                 }
             }
             let growth = if sys.eig[k].re > 0.0 { (sys.eig[k].re * tau).exp() } else { 1.0 };
-            let r = growth * ((sample.z[0][k] - zp).norm() + NOISE * terms.size + terms.resonant[0] * tau);
+            let dz = sample.z[0][k] - zp;
+            let r = growth * ((dz.re * dz.re + dz.im * dz.im).sqrt() + NOISE * terms.size + terms.resonant[0] * tau);
             let powers = [1.0, l, l * l, l * l * l, l * l * l * l];
             let mut bounds = [0.0; 7];
             for (slot, m) in (2..5).enumerate() {
@@ -642,6 +669,9 @@ pub struct ProjectedFunctional {
     /// `|c_k|`.
     c_abs: Vec<f64>,
     f: Option<DVector<f64>>,
+    /// `c . f_const` and `c . b_h` per harmonic: the load part in O(1) per probe.
+    f_const: f64,
+    f_harmonics: Vec<C64>,
     /// `sum_j |f_j| max |d^m f_j / dt^m|`, m = 0..=4: the load part's bounds.
     load_bounds: [f64; 5],
 }

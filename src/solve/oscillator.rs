@@ -13,10 +13,12 @@ pub type C64 = Complex<f64>;
 /// `expm1` of a complex argument, accurate for small `|z|`.
 pub fn expm1_c(z: C64) -> C64 {
     let em = z.re.exp_m1();
-    let (sy, cy) = z.im.sin_cos();
-    let half = (0.5 * z.im).sin();
-    // e^x cos y - 1 = expm1(x) cos y - 2 sin^2(y/2): no cancellation for x <= 0.
-    C64::new(em * cy - 2.0 * half * half, (em + 1.0) * sy)
+    // One sin_cos of the half angle: sin y = 2 sin(y/2) cos(y/2),
+    // cos y - 1 = -2 sin^2(y/2).
+    let (sh, ch) = (0.5 * z.im).sin_cos();
+    let cy_m1 = -2.0 * sh * sh;
+    // e^x cos y - 1 = expm1(x) cos y + (cos y - 1): no cancellation for x <= 0.
+    C64::new(em * (1.0 + cy_m1) + cy_m1, (em + 1.0) * (2.0 * sh * ch))
 }
 
 /// `phi1(z) = (e^z - 1) / z`, the exponential integral kernel.
