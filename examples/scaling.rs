@@ -1,47 +1,116 @@
-//! Run time, events and event-search points against the number of modes.
-//! `cargo run --release --example scaling -- [N ...]`
+//! Run time against the number of modes (GitHub issue 10, item 5), for a
+//! rigid stop and a spring stop, natively:
+//!
+//! - `rigid`: S2, the pinned beam of seed 000 (Vyasarayani, Sandhu & McPhee
+//!   2012) at F = 72, Omega = 0.7 pi^2, d = 1.2, restitution 0.7 with
+//!   eps = 1e-3, 60 forcing periods: impacts, chatter and sticking (the
+//!   sticking phases run on the coupled path);
+//! - `spring`: `scenes/spring_stop_hard.json` (seed 001's cantilever with a
+//!   hard linear spring stop, kappa = 100), 60 forcing periods: every
+//!   contact phase runs on the coupled path.
+//!
+//! `cargo run --release --example scaling -- [--csv FILE] [N ...]` prints,
+//! per case and N, the model build time (modes, projections), the run time
+//! (minimum over repeats of `Simulation::new` + `advance_to`), the event
+//! search points, the events and the contacts. `tools/report/scaling.py`
+//! plots the CSV.
 use std::f64::consts::PI;
+use std::io::Write;
 use std::time::Instant;
 
 use beamstop::interface::ParamKey;
 use beamstop::scene::StructureSpec;
 use beamstop::{Model, Scene, Simulation};
 
+fn scene_text(file: &str) -> String {
+    let path = format!("{}/scenes/{file}", env!("CARGO_MANIFEST_DIR"));
+    std::fs::read_to_string(&path).expect("scene file")
+}
+
+fn scene(file: &str) -> Scene {
+    Scene::from_json(&scene_text(file)).expect("valid scene")
+}
+
+/// The case's scene at `n` modes and its end time.
+fn case(name: &str, n: usize) -> (Scene, f64) {
+    let (mut scene, t_end) = match name {
+        "rigid" => {
+            let mut s = scene("pinned_beam.json");
+            ParamKey::LoadAmplitude(0).set(&mut s, 72.0);
+            ParamKey::LoadOmega(0).set(&mut s, 0.7 * PI * PI);
+            ParamKey::StopGap(0).set(&mut s, 1.2);
+            ParamKey::Law(0, 1).set(&mut s, 1e-3);
+            (s, 60.0 * 2.0 * PI / (0.7 * PI * PI))
+        }
+        "spring" => {
+            let s = scene("spring_stop_hard.json");
+            let json: serde_json::Value = serde_json::from_str(&scene_text("spring_stop_hard.json")).expect("JSON");
+            let omega = json["loads"][0]["omega"].as_f64().expect("a harmonic load");
+            (s, 60.0 * 2.0 * PI / omega)
+        }
+        other => panic!("unknown case {other}"),
+    };
+    if let StructureSpec::Beam { modes, .. } = &mut scene.structure {
+        *modes = n;
+    }
+    // A measurement, not a co-simulation step: no work cap.
+    scene.solver.max_probes_per_step = Some(u64::MAX / 2);
+    scene.solver.max_events_per_step = u64::MAX / 2;
+    (scene, t_end)
+}
+
 fn main() {
-    let base = Scene::from_json(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap()).unwrap();
-    let ns: Vec<usize> = std::env::args().skip(1).map(|a| a.parse().unwrap()).collect();
-    let ns = if ns.is_empty() { vec![4, 8, 16, 32, 64] } else { ns };
+    let mut args = std::env::args().skip(1);
+    let mut csv: Option<std::fs::File> = None;
+    let mut ns = Vec::new();
+    while let Some(a) = args.next() {
+        if a == "--csv" {
+            let path = args.next().expect("--csv FILE");
+            csv = Some(std::fs::File::create(&path).expect("writable CSV"));
+        } else {
+            ns.push(a.parse::<usize>().unwrap_or_else(|_| panic!("not a mode count: {a}")));
+        }
+    }
+    if ns.is_empty() {
+        ns = vec![4, 8, 16, 32, 64, 128, 256, 500];
+    }
+    if let Some(f) = csv.as_mut() {
+        writeln!(f, "case,modes,build_s,run_s,probes,events,contacts").unwrap();
+    }
     for &n in &ns {
-        for s in ["S2", "S3"] {
-            let mut scene = base.clone();
-            if let StructureSpec::Beam { modes, .. } = &mut scene.structure {
-                *modes = n;
-            }
-            let t_end = if s == "S2" {
-                ParamKey::LoadAmplitude(0).set(&mut scene, 72.0);
-                ParamKey::LoadOmega(0).set(&mut scene, 0.7 * PI * PI);
-                ParamKey::StopGap(0).set(&mut scene, 1.2);
-                ParamKey::Law(0, 1).set(&mut scene, 1e-3);
-                60.0 * 2.0 * PI / (0.7 * PI * PI)
-            } else {
-                20.0
-            };
-            scene.solver.max_probes_per_step = Some(u64::MAX / 2);
-            scene.solver.max_events_per_step = u64::MAX / 2;
-            let model = Model::build(&scene).unwrap();
+        for name in ["rigid", "spring"] {
+            let (scene, t_end) = case(name, n);
+            let t0 = Instant::now();
+            let model = Model::build(&scene).expect("model");
+            let build = t0.elapsed().as_secs_f64();
             let mut best = f64::INFINITY;
-            let mut stats = None;
-            let reps = if n <= 16 { 20 } else if n <= 64 { 3 } else { 1 };
-            for _ in 0..reps {
+            let mut spent = 0.0;
+            let mut result = None;
+            // At least 3 repeats and 0.3 s, at most 1 repeat past 3 s.
+            while result.is_none() || (spent < 0.3 || result.as_ref().map_or(0, |(r, _)| *r) < 3) && best < 3.0 {
                 let t0 = Instant::now();
-                let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+                let mut sim = Simulation::new(model.clone(), 0.0).expect("simulation");
                 sim.set_event_recording(false);
-                sim.advance_to(t_end).unwrap();
-                best = best.min(t0.elapsed().as_secs_f64());
-                stats = Some((sim.stats(), sim.state().stops[0].impacts, sim.state().stops[0].sticks));
+                sim.advance_to(t_end).expect("run");
+                let dt = t0.elapsed().as_secs_f64();
+                best = best.min(dt);
+                spent += dt;
+                let contacts: u64 = sim.state().stops.iter().map(|s| s.impacts).sum();
+                let reps = result.as_ref().map_or(0, |(r, _)| *r) + 1;
+                result = Some((reps, (sim.stats(), contacts)));
             }
-            let (st, imp, sticks) = stats.unwrap();
-            println!("{s} N={n:4} time {:10.4} ms  probes {:8} events {:6} impacts {imp:6} sticks {sticks:4}  us/probe {:.3}", best * 1e3, st.probes, st.events, best * 1e6 / st.probes as f64);
+            let (_, (stats, contacts)) = result.expect("one run");
+            println!(
+                "{name:6} N={n:4}  build {:9.2} ms  run {:10.3} ms  probes {:7}  events {:5}  contacts {contacts:5}  us/probe {:8.3}",
+                build * 1e3,
+                best * 1e3,
+                stats.probes,
+                stats.events,
+                best * 1e6 / stats.probes.max(1) as f64
+            );
+            if let Some(f) = csv.as_mut() {
+                writeln!(f, "{name},{n},{build:.6e},{best:.6e},{},{},{contacts}", stats.probes, stats.events).unwrap();
+            }
         }
     }
 }

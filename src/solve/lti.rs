@@ -56,6 +56,9 @@ pub struct CoupledSystem {
     /// `1 / L_k` and `|L_k|`, used by every probe.
     eig_inv: DVector<C64>,
     eig_abs: Vec<f64>,
+    /// `eig[k] = conj(eig[k - 1])` exactly: the exponential of a conjugate
+    /// pair is computed once.
+    conjugate_of_previous: Vec<bool>,
 }
 
 impl CoupledSystem {
@@ -179,9 +182,21 @@ impl CoupledSystem {
             });
             (eig, v, v_inv)
         };
+        // A real system's eigenvalues come in conjugate pairs (adjacent from
+        // the real Schur form); refined separately they may differ in the
+        // last bits: made exact conjugates.
+        let mut eig = eig;
+        let mut conjugate_of_previous = vec![false; eig.len()];
+        for k in 1..eig.len() {
+            let (a, b) = (eig[k - 1], eig[k]);
+            if !conjugate_of_previous[k - 1] && a.im != 0.0 && (b - a.conj()).norm() <= 1e-12 * a.norm() {
+                eig[k] = a.conj();
+                conjugate_of_previous[k] = true;
+            }
+        }
         let eig_inv = eig.map(|l| C64::new(1.0, 0.0) / l);
         let eig_abs = eig.iter().map(|l| l.norm()).collect();
-        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv, eig_inv, eig_abs })
+        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv, eig_inv, eig_abs, conjugate_of_previous })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -443,10 +458,12 @@ impl CoupledSegment {
     fn z_into(&self, sys: &CoupledSystem, t: f64, out: &mut DVector<C64>) {
         let s = t - self.t0;
         let rotations: [C64; 8] = std::array::from_fn(|i| self.harmonics.get(i).map_or(C64::new(0.0, 0.0), |h| expm1_c(C64::new(0.0, h.omega * s))));
+        let mut previous = C64::new(0.0, 0.0);
         for k in 0..sys.eig.len() {
             let l = sys.eig[k];
             let ls = l * s;
-            let e = expm1_c(ls);
+            let e = if sys.conjugate_of_previous[k] { previous.conj() } else { expm1_c(ls) };
+            previous = e;
             let forced_const = if ls.norm() < 1e-5 { self.g_const[k] * phi1(ls) * s } else { self.g_const[k] * e * sys.eig_inv[k] };
             let mut z = self.z0[k] + e * self.z0[k] + forced_const;
             for (i, h) in self.harmonics.iter().enumerate() {
@@ -730,6 +747,57 @@ mod tests {
         assert!((&out.q - &q).norm() < 1e-11, "{} vs {}", out.q, q);
         assert!((&out.qd - &v).norm() < 1e-10);
         assert!((wv.dot(&out.q) - 0.25).abs() < 1e-14);
+    }
+
+    /// Many modes, a held point and modal damping (dense projected damping,
+    /// conjugate pairs, a load between two coupled frequencies, one near a
+    /// resonance): the closed form against RK4 on the constrained equations.
+    #[test]
+    fn many_mode_sticking_phase_matches_projected_rk4() {
+        let n = 24;
+        let pi4 = std::f64::consts::PI.powi(4);
+        let k = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| ((j + 1) as f64).powi(4) * pi4));
+        let d = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| 0.1 * ((j + 1) as f64).powi(2) * std::f64::consts::PI.powi(2)));
+        let w = DMatrix::from_fn(n, 1, |j, _| 2f64.sqrt() * ((j + 1) as f64 * std::f64::consts::PI * 0.37).sin());
+        let sys = CoupledSystem::new(k.clone(), d.clone(), w.clone()).unwrap();
+        assert!(sys.conjugate_of_previous.iter().filter(|&&c| c).count() >= n / 2, "pairs found");
+        let mut forcing = ModalForcing::zero(n);
+        forcing.constant = DVector::from_fn(n, |j, _| 0.3 / (j + 1) as f64);
+        forcing.add_harmonic(60.0, DVector::from_fn(n, |j, _| C64::new(0.0, -5.0 * (0.5 + j as f64).sin())));
+        let targets = dvector![0.01];
+        let mut start = ModalState { q: DVector::from_fn(n, |j, _| 0.02 / ((j + 1) as f64).powi(2)), qd: DVector::from_fn(n, |j, _| 0.1 * (j as f64).cos()) };
+        sys.project(&targets, &mut start);
+        let (t0, t1) = (0.2, 0.45);
+        let q_c = sys.q_c(&targets);
+        let seg = CoupledSegment::new(&sys, &forcing, &q_c, &(&k * &q_c), t0, &start);
+        let mut out = ModalState::zeros(n);
+        seg.state_at(&sys, t1, &mut out);
+        let wv = w.column(0).into_owned();
+        let p = DMatrix::identity(n, n) - &wv * wv.transpose() / wv.dot(&wv);
+        let mut f = DVector::zeros(n);
+        let mut acc = |t: f64, q: &DVector<f64>, v: &DVector<f64>| -> DVector<f64> {
+            forcing.derivative(t, 0, &mut f);
+            &p * (&f - &d * v - &k * q)
+        };
+        let steps = 200_000;
+        let h = (t1 - t0) / steps as f64;
+        let (mut q, mut v) = (start.q.clone(), start.qd.clone());
+        for i in 0..steps {
+            let t = t0 + i as f64 * h;
+            let k1v = acc(t, &q, &v);
+            let k1q = v.clone();
+            let k2q = &v + &k1v * (h / 2.0);
+            let k2v = acc(t + h / 2.0, &(&q + &k1q * (h / 2.0)), &k2q);
+            let k3q = &v + &k2v * (h / 2.0);
+            let k3v = acc(t + h / 2.0, &(&q + &k2q * (h / 2.0)), &k3q);
+            let k4q = &v + &k3v * h;
+            let k4v = acc(t + h, &(&q + &k3q * h), &k4q);
+            q += (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (h / 6.0);
+            v += (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+        }
+        assert!((&out.q - &q).norm() < 1e-10 * q.norm(), "{:e}", (&out.q - &q).norm() / q.norm());
+        assert!((&out.qd - &v).norm() < 1e-9 * v.norm(), "{:e}", (&out.qd - &v).norm() / v.norm());
+        assert!((wv.dot(&out.q) - 0.01).abs() < 1e-14);
     }
 
     /// The exact integral of the coordinates against Gauss-Legendre
