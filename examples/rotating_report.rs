@@ -12,7 +12,8 @@
 //!    torque, contact or damping; several minutes: `--skip-long` skips it).
 //!
 //! Writes `report/rotating/`: `seed_history.csv` (t, theta, tip.w, force),
-//! `modes.csv`, `spin_up.csv` (tip deflection, both orders), `summary.md`.
+//! `modes.csv`, `spin_up.csv` (tip deflection, both orders), `summary.md`
+//! (its figures: `python -m tools.report.rotating_plots`).
 
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
@@ -169,7 +170,7 @@ fn main() {
         e_start,
         sim.total_energy() + sim.dissipated_energy() - e_start
     );
-    let _ = writeln!(summary, "- History: `seed_history.csv` (t, theta, theta_dot, tip_w = v_L, tip x, y, force), every 10 us.\n");
+    let _ = writeln!(summary, "- History: `seed_history.csv` (t, theta, theta_dot, tip_w = v_L, tip x, y, force), every 10 us.\n\n![seed scene: contact force, hub speed, tip deflection](seed_history.png)\n");
 
     // 2. Modal convergence of the first contact.
     let ns = [2usize, 4, 6, 8, 12, 16, 24, 32, 40];
@@ -198,7 +199,7 @@ fn main() {
         "\nWithin 1 % of N = 40 (the most the scene allows) from N = {needed} on. With more modes the tip's effective mass \
          falls and so does the first peak (6 modes, the seed's choice: {:+.0} %); from about N = 16 the first contact also lasts \
          several times longer (duration column): after the first pulse the light, fast tip stays pressed against the plane, held \
-         by the slower beam behind it.\n",
+         by the slower beam behind it.\n\n![first contact force against N](modes.png)\n",
         100.0 * (rows[2].1 - finest) / finest
     );
 
@@ -267,7 +268,7 @@ fn main() {
     let _ = writeln!(
         summary,
         "- First order (geometric stiffening): peak tip deflection {p1:.4} m at t = {t1:.2} s, at most {late:.4} m after 20 s.\n\
-         - Zeroth order: beyond 10 m at t = {} s, {p0:.3e} m by t = {:.2} s (diverges).\n- History: `spin_up.csv`.\n",
+         - Zeroth order: beyond 10 m at t = {} s, {p0:.3e} m by t = {:.2} s (diverges).\n- History: `spin_up.csv`.\n\n![spin-up: zeroth against first order](spin_up.png)\n",
         t10.map_or("-".into(), |t| format!("{t:.2}")),
         zeroth.time()
     );
