@@ -56,7 +56,9 @@
 //! beamstop run likewise, and their ratio.
 //!
 //! `cargo run --release --example rigid_peer -- [--csv RUNS.csv]
-//! [--levels-csv LEVELS.csv] [--scene S2|S3] [--quick]`
+//! [--levels-csv LEVELS.csv] [--scene S2|S3] [--quick] [--debug-rtol R]`
+//! (`--debug-rtol`: one peer run at rtol R printed beside the reference's
+//! sticks and releases, nothing timed).
 #[path = "peer/dop853.rs"]
 mod dop853;
 
@@ -323,9 +325,6 @@ fn peer(beam: &Beam, y0: &[f64], start_stuck: bool, t_end: f64, rtol: f64, atol:
             continue;
         };
         let te = brent(|t| watched(&mut s, t, t0, order, offset), ta, ga, tb, gb);
-        if std::env::var_os("PEER_DEBUG").is_some() {
-            eprintln!("event at {te:.17e} (stuck {}, order {order}, bracket {ta:e} {ga:e} {tb:e} {gb:e}, h {:e})", s.rhs.stuck, s.next_step_size());
-        }
         s.dense(te, &mut ybuf);
         let beam = &s.rhs;
         if beam.stuck {

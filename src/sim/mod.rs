@@ -1036,8 +1036,10 @@ impl Simulation {
     }
 
     /// The departing flags of the current channels.
-    fn departing_flags(&self) -> Vec<bool> {
-        self.channels.iter().map(|ch| self.state.stops[ch.stop].departing[ch.slot]).collect()
+    /// The channels' departing flags, into `out`.
+    fn departing_flags_into(&self, out: &mut Vec<bool>) {
+        out.clear();
+        out.extend(self.channels.iter().map(|ch| self.state.stops[ch.stop].departing[ch.slot]));
     }
 
     /// Stores the search's departing flags back into the stops.
@@ -1050,16 +1052,17 @@ impl Simulation {
     /// Jets of every watched event function at time `t` (state `st`), and
     /// the certified step or the list of functions at zero.
     fn probe(&self, t: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Probe {
-        let mut scan = Scan::new(self.departing_flags());
         let tol = self.model.event_tolerance;
-        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, .. } = buffers;
+        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, departing, keep, .. } = buffers;
+        self.departing_flags_into(departing);
+        let mut scan = Scan::new(departing, keep);
         match &self.segment {
             Segment::Free { segment: seg, functions } => {
                 seg.state_and_increment_at(&self.dynamics, t, st, increment);
                 if self.channels.is_empty() {
                     return scan.finish();
                 }
-                jet_buf.fill_free(&self.dynamics, t, st);
+                jet_buf.fill_free_rotated(&self.dynamics, &increment.rotations, st);
                 let mut bounds_ready = false;
                 for (c, (h, at_anchor)) in functions.iter().enumerate() {
                     let mut jet = jet_buf.functional(h, t);
@@ -1071,12 +1074,14 @@ impl Simulation {
                     } else {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
-                    scan.consider(c, jet, || {
+                    let tau = self.tau_max;
+                    scan.consider(c, jet, |split| {
                         if !bounds_ready {
-                            seg.fill_bounds(&self.dynamics, st, increment, self.tau_max, bound_buf);
+                            seg.fill_bounds(&self.dynamics, st, increment, tau, bound_buf);
                             bounds_ready = true;
                         }
-                        bound_buf.functional(h, self.tau_max)
+                        let other = if split { bound_buf.split_step(jet_buf, h, &jet, tau) } else { 0.0 };
+                        (bound_buf.functional(h, tau), other)
                     });
                 }
             }
@@ -1090,12 +1095,12 @@ impl Simulation {
                     if self.channels[c].watch != Watch::Reaction {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
-                    scan.consider(c, jet, || {
+                    scan.consider(c, jet, |_| {
                         if !coords_ready {
                             segment.coordinate_bounds_into(system, coupled, self.tau_max, coords);
                             coords_ready = true;
                         }
-                        segment.bounds(p, coords, self.tau_max)
+                        (segment.bounds(p, coords, self.tau_max), 0.0)
                     });
                 }
             }
@@ -1175,7 +1180,7 @@ impl Simulation {
             self.stats.probes += 1;
             let at_zero = match self.probe(l, st, buffers) {
                 Probe::Events(list) => list,
-                Probe::Clear { step, limiting, departing } => {
+                Probe::Clear { step, limiting } => {
                     // Clear down to the search's resolution: step on.
                     let next = l + step;
                     if next > l {
@@ -1183,7 +1188,7 @@ impl Simulation {
                             break;
                         }
                         // Functions leaving their boundary stop departing once clear of noise.
-                        self.set_departing(&departing);
+                        self.set_departing(&buffers.keep);
                         self.state.scan = next;
                         continue;
                     }
@@ -1249,11 +1254,11 @@ impl Simulation {
             }
             match check.probe(l, &mut st, &mut buffers) {
                 Probe::Events(_) => return false,
-                Probe::Clear { step, departing, .. } => {
+                Probe::Clear { step, .. } => {
                     if !(l + step > l) {
                         return false;
                     }
-                    check.set_departing(&departing);
+                    check.set_departing(&buffers.keep);
                     check.state.scan = l + step;
                 }
             }
@@ -1424,8 +1429,10 @@ impl Simulation {
         // zero: the beam sticks if the loads press it on (the reaction of seed
         // 000 eq. 32 of the right sign), else it leaves. Zero-velocity
         // contacts found pressed stick.
-        let mut jet_buf = ModalJet::new(self.model.n_modes());
-        jet_buf.fill_free(&self.dynamics, t, &st);
+        let mut jet_buf = ModalJet::new(if chatter_ends.is_empty() { 0 } else { self.model.n_modes() });
+        if !chatter_ends.is_empty() {
+            jet_buf.fill_free(&self.dynamics, t, &st);
+        }
         for &i in &chatter_ends {
             let jet = jet_buf.functional(&self.gap_functionals[i], t);
             if tendency_from(&jet, 2) != Tendency::Opening {
@@ -1488,6 +1495,9 @@ struct ProbeBuffers {
     increment: Increment,
     coupled: CoupledSample,
     coords: Vec<[f64; 7]>,
+    /// The channels' departing flags before and after a probe.
+    departing: Vec<bool>,
+    keep: Vec<bool>,
 }
 
 impl ProbeBuffers {
@@ -1500,36 +1510,42 @@ impl ProbeBuffers {
             increment: Increment::new(n),
             coupled: CoupledSample::default(),
             coords: Vec::new(),
+            departing: Vec::new(),
+            keep: Vec::new(),
         }
     }
 }
 
 enum Probe {
-    /// No zero at this point; `departing` keeps the flags of functions
-    /// still within noise of their boundary.
-    Clear { step: f64, limiting: Option<(usize, Jet)>, departing: Vec<bool> },
+    /// No zero at this point; the probe buffers' `keep` holds the
+    /// departing flags of functions still within noise of their boundary.
+    Clear { step: f64, limiting: Option<(usize, Jet)> },
     Events(Vec<(usize, Jet)>),
 }
 
 /// The event functions' verdicts at one point, gathered.
-struct Scan {
+struct Scan<'a> {
     /// Functions leaving their boundary (input).
-    departing: Vec<bool>,
+    departing: &'a [bool],
     at_zero: Vec<(usize, Jet)>,
     step: f64,
     limiting: Option<(usize, Jet)>,
-    keep: Vec<bool>,
+    /// Functions still departing after this point (output).
+    keep: &'a mut Vec<bool>,
 }
 
-impl Scan {
-    fn new(departing: Vec<bool>) -> Self {
-        let n = departing.len();
-        Scan { departing, at_zero: Vec::new(), step: f64::INFINITY, limiting: None, keep: vec![false; n] }
+impl<'a> Scan<'a> {
+    fn new(departing: &'a [bool], keep: &'a mut Vec<bool>) -> Self {
+        keep.clear();
+        keep.resize(departing.len(), false);
+        Scan { departing, at_zero: Vec::new(), step: f64::INFINITY, limiting: None, keep }
     }
 
     /// One function: at its zero (an event), or clear for a certified step;
-    /// the derivative bounds are only computed when needed.
-    fn consider(&mut self, i: usize, jet: Jet, bounds: impl FnOnce() -> DerivativeBounds) {
+    /// the derivative bounds are only computed when needed. With `true`
+    /// (a function not departing) `bounds` also gives another certified
+    /// step (0 if none).
+    fn consider(&mut self, i: usize, jet: Jet, bounds: impl FnOnce(bool) -> (DerivativeBounds, f64)) {
         let departing = self.departing[i];
         if jet.d[0] <= jet.noise[0] {
             if !departing {
@@ -1538,8 +1554,10 @@ impl Scan {
             }
             self.keep[i] = true;
         }
-        match certified_step(&jet, &bounds(), departing) {
+        let (bounds, other) = bounds(!departing);
+        match certified_step(&jet, &bounds, departing) {
             Certified::Clear(s) => {
+                let s = s.max(other);
                 if s < self.step {
                     self.step = s;
                     self.limiting = Some((i, jet));
@@ -1551,7 +1569,7 @@ impl Scan {
 
     fn finish(self) -> Probe {
         if self.at_zero.is_empty() {
-            Probe::Clear { step: self.step, limiting: self.limiting, departing: self.keep }
+            Probe::Clear { step: self.step, limiting: self.limiting }
         } else {
             Probe::Events(self.at_zero)
         }

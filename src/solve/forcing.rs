@@ -72,6 +72,20 @@ impl ModalForcing {
 
     /// `d^m f / dt^m` for m = 0..out.len() at time `t`, sharing the rotations.
     pub fn derivatives(&self, t: f64, out: &mut [DVector<f64>]) {
+        let mut buffer = [C64::new(0.0, 0.0); 8];
+        if self.harmonics.len() <= buffer.len() {
+            for (r, h) in buffer.iter_mut().zip(&self.harmonics) {
+                *r = C64::from_polar(1.0, h.omega * t);
+            }
+            self.derivatives_rotated(&buffer[..self.harmonics.len()], out);
+        } else {
+            let rotations: Vec<C64> = self.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t)).collect();
+            self.derivatives_rotated(&rotations, out);
+        }
+    }
+
+    /// As [`Self::derivatives`], given `e^{i Omega t}` of every harmonic.
+    pub fn derivatives_rotated(&self, rotations: &[C64], out: &mut [DVector<f64>]) {
         for (m, o) in out.iter_mut().enumerate() {
             if m == 0 {
                 o.copy_from(&self.constant);
@@ -79,11 +93,11 @@ impl ModalForcing {
                 o.fill(0.0);
             }
         }
-        for h in &self.harmonics {
-            let mut factor = C64::from_polar(1.0, h.omega * t);
+        for (h, &rotation) in self.harmonics.iter().zip(rotations) {
+            let mut factor = rotation;
             let step = C64::new(0.0, h.omega);
             for o in out.iter_mut() {
-                for (x, b) in o.iter_mut().zip(h.amplitude.iter()) {
+                for (x, b) in o.as_mut_slice().iter_mut().zip(h.amplitude.as_slice()) {
                     *x += b.re * factor.re - b.im * factor.im;
                 }
                 factor *= step;

@@ -81,8 +81,11 @@ fn c0_s0(q: f64) -> (f64, f64, f64) {
         (1.0 + cm1, s, cm1)
     } else if q > 0.0 {
         let r = q.sqrt();
-        let h = (0.5 * r).sin();
-        (r.cos(), r.sin() / r, -2.0 * h * h)
+        // One sin_cos of the half angle: sin r = 2 sin(r/2) cos(r/2),
+        // cos r - 1 = -2 sin^2(r/2).
+        let (sh, ch) = (0.5 * r).sin_cos();
+        let cm1 = -2.0 * sh * sh;
+        (1.0 + cm1, 2.0 * sh * ch / r, cm1)
     } else {
         let r = (-q).sqrt();
         let h = (0.5 * r).sinh();
