@@ -65,6 +65,8 @@
 //! count also holds the few free-flight probes of the calls that end at its
 //! onset and separation).
 
+#[path = "peer/brent.rs"]
+mod brent;
 #[path = "peer/dop853.rs"]
 mod dop853;
 
@@ -74,6 +76,7 @@ use std::time::Instant;
 use beamstop::contact::{Hertz, Law};
 use beamstop::solve::ModalForcing;
 use beamstop::{EventKind, Model, Scene, Simulation};
+use brent::brent;
 use dop853::{Dop853, Rhs};
 use nalgebra::DVector;
 
@@ -204,68 +207,6 @@ struct Run {
     steps: u64,
     /// Peer: accepted steps in the pressed and penetrated phases.
     contact_steps: u64,
-}
-
-/// Brent's method (zeroin) on `[a, b]` with `fa`, `fb` of opposite signs.
-fn brent(mut g: impl FnMut(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
-    let eps = f64::EPSILON;
-    let (mut c, mut fc) = (a, fa);
-    let mut d = b - a;
-    let mut e = d;
-    for _ in 0..200 {
-        if (fb > 0.0) == (fc > 0.0) {
-            c = a;
-            fc = fa;
-            d = b - a;
-            e = d;
-        }
-        if fc.abs() < fb.abs() {
-            a = b;
-            b = c;
-            c = a;
-            fa = fb;
-            fb = fc;
-            fc = fa;
-        }
-        let tol = 2.0 * eps * b.abs();
-        let m = 0.5 * (c - b);
-        if m.abs() <= tol || fb == 0.0 {
-            return b;
-        }
-        if e.abs() >= tol && fa.abs() > fb.abs() {
-            let s = fb / fa;
-            let (mut p, mut q);
-            if a == c {
-                p = 2.0 * m * s;
-                q = 1.0 - s;
-            } else {
-                let qq = fa / fc;
-                let r = fb / fc;
-                p = s * (2.0 * m * qq * (qq - r) - (b - a) * (r - 1.0));
-                q = (qq - 1.0) * (r - 1.0) * (s - 1.0);
-            }
-            if p > 0.0 {
-                q = -q;
-            } else {
-                p = -p;
-            }
-            if 2.0 * p < (3.0 * m * q - (tol * q).abs()).min((e * q).abs()) {
-                e = d;
-                d = p / q;
-            } else {
-                d = m;
-                e = m;
-            }
-        } else {
-            d = m;
-            e = m;
-        }
-        a = b;
-        fa = fb;
-        b += if d.abs() > tol { d } else { tol.copysign(m) };
-        fb = g(b);
-    }
-    b
 }
 
 /// The watched functions from the dense output at `t`.

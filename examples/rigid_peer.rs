@@ -59,6 +59,8 @@
 //! [--levels-csv LEVELS.csv] [--scene S2|S3] [--quick] [--debug-rtol R]`
 //! (`--debug-rtol`: one peer run at rtol R printed beside the reference's
 //! sticks and releases, nothing timed).
+#[path = "peer/brent.rs"]
+mod brent;
 #[path = "peer/dop853.rs"]
 mod dop853;
 
@@ -69,6 +71,7 @@ use std::time::Instant;
 use beamstop::contact::{Contact, Law};
 use beamstop::interface::ParamKey;
 use beamstop::{EventKind, Model, Scene, Simulation};
+use brent::brent;
 use dop853::{Dop853, Rhs};
 
 const INTERIOR: usize = 4;
@@ -185,68 +188,6 @@ impl Rhs for Beam {
             }
         }
     }
-}
-
-/// Brent's method (zeroin) on `[a, b]` with `fa`, `fb` of opposite signs.
-fn brent(mut g: impl FnMut(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
-    let eps = f64::EPSILON;
-    let (mut c, mut fc) = (a, fa);
-    let mut d = b - a;
-    let mut e = d;
-    for _ in 0..200 {
-        if (fb > 0.0) == (fc > 0.0) {
-            c = a;
-            fc = fa;
-            d = b - a;
-            e = d;
-        }
-        if fc.abs() < fb.abs() {
-            a = b;
-            b = c;
-            c = a;
-            fa = fb;
-            fb = fc;
-            fc = fa;
-        }
-        let tol = 2.0 * eps * b.abs();
-        let m = 0.5 * (c - b);
-        if m.abs() <= tol || fb == 0.0 {
-            return b;
-        }
-        if e.abs() >= tol && fa.abs() > fb.abs() {
-            let s = fb / fa;
-            let (mut p, mut q);
-            if a == c {
-                p = 2.0 * m * s;
-                q = 1.0 - s;
-            } else {
-                let qq = fa / fc;
-                let r = fb / fc;
-                p = s * (2.0 * m * qq * (qq - r) - (b - a) * (r - 1.0));
-                q = (qq - 1.0) * (r - 1.0) * (s - 1.0);
-            }
-            if p > 0.0 {
-                q = -q;
-            } else {
-                p = -p;
-            }
-            if 2.0 * p < (3.0 * m * q - (tol * q).abs()).min((e * q).abs()) {
-                e = d;
-                d = p / q;
-            } else {
-                d = m;
-                e = m;
-            }
-        } else {
-            d = m;
-            e = m;
-        }
-        a = b;
-        fa = fb;
-        b += if d.abs() > tol { d } else { tol.copysign(m) };
-        fb = g(b);
-    }
-    b
 }
 
 /// The event times of one run.
