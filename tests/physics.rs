@@ -59,8 +59,11 @@ fn energy_is_conserved_with_perfectly_elastic_impacts() {
         s.advance_to(k as f64 * 0.01).unwrap();
         worst = worst.max((s.energy() - e0).abs() / e0);
     }
+    // The elastic motion is chaotic: impact times differing by rounding
+    // (1e-14 at t = 3) part by 1e-6 at t = 8, so the count by t = 20
+    // (96 to 102) is not a property of the code; the drift is.
     let impacts = impact_times(&mut s).len();
-    assert!(impacts > 100, "only {impacts} impacts");
+    assert!(impacts > 80, "only {impacts} impacts");
     assert!(worst < 1e-12, "energy drift {worst:e} over {impacts} impacts");
 }
 

@@ -110,19 +110,29 @@ pub struct ImpactRow<'a> {
     pub side: f64,
 }
 
-/// Applies the impact rule in place and returns the impulses. Points whose
-/// impulse would pull on the beam (only possible for held points) are
-/// dropped and the rest solved again; their entry in the result is 0.
-pub fn apply_impact(qd: &mut DVector<f64>, rows: &[ImpactRow]) -> Vec<f64> {
+/// Applies the impact rule in place and writes the impulses, one per row,
+/// into `impulses`. Points whose impulse would pull on the beam (only
+/// possible for held points) are dropped and the rest solved again; their
+/// impulse is 0.
+pub fn apply_impact(qd: &mut DVector<f64>, rows: &[ImpactRow], impulses: &mut Vec<f64>) {
+    impulses.clear();
+    if let [row] = rows {
+        // One point: eq. 28 directly, `P = -(1 + R) w . qd- / (w . w)`.
+        let p = -(1.0 + row.restitution) * row.w.dot(qd) / row.w.dot(row.w);
+        qd.axpy(p, row.w, 1.0);
+        impulses.push(p);
+        return;
+    }
+    impulses.resize(rows.len(), 0.0);
     let mut active: Vec<bool> = vec![true; rows.len()];
     let before = qd.clone();
     loop {
         let idx: Vec<usize> = (0..rows.len()).filter(|&i| active[i]).collect();
         let m = idx.len();
-        let mut impulses = vec![0.0; rows.len()];
+        impulses.iter_mut().for_each(|p| *p = 0.0);
         if m == 0 {
             qd.copy_from(&before);
-            return impulses;
+            return;
         }
         let gram = DMatrix::from_fn(m, m, |a, b| rows[idx[a]].w.dot(rows[idx[b]].w));
         let rhs = DVector::from_fn(m, |a, _| {
@@ -138,7 +148,7 @@ pub fn apply_impact(qd: &mut DVector<f64>, rows: &[ImpactRow]) -> Vec<f64> {
         let pulling: Vec<usize> = idx.iter().copied().filter(|&i| impulses[i] * rows[i].side > 0.0).collect();
         if pulling.is_empty() || m == 1 {
             qd.copy_from(&after);
-            return impulses;
+            return;
         }
         for i in pulling {
             active[i] = false;
@@ -163,7 +173,7 @@ mod tests {
         let w = dvector![1.1, 0.3, -0.8];
         let mut qd = dvector![2.0, -1.0, 0.5];
         let before = qd.clone();
-        apply_impact(&mut qd, &[ImpactRow { w: &w, restitution: 0.7, side: 1.0 }]);
+        apply_impact(&mut qd, &[ImpactRow { w: &w, restitution: 0.7, side: 1.0 }], &mut Vec::new());
         assert!((w.dot(&qd) + 0.7 * w.dot(&before)).abs() < 1e-14);
         let expected = &before - &w * ((1.0 + 0.7) * w.dot(&before) / w.dot(&w));
         assert!((qd - expected).norm() < 1e-14);
@@ -174,7 +184,7 @@ mod tests {
         let w = dvector![1.1, 0.3, -0.8];
         let mut qd = dvector![2.0, -1.0, 0.5];
         let before = qd.clone();
-        apply_impact(&mut qd, &[ImpactRow { w: &w, restitution: 0.4, side: 1.0 }]);
+        apply_impact(&mut qd, &[ImpactRow { w: &w, restitution: 0.4, side: 1.0 }], &mut Vec::new());
         let lost = 0.5 * (before.norm_squared() - qd.norm_squared());
         assert!((lost - energy_loss(&w, &before, 0.4)).abs() < 1e-14);
     }

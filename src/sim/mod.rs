@@ -281,6 +281,8 @@ pub struct Simulation {
     basis_changed: bool,
     /// Mode transfer with inherited damping: the contact phase's system.
     transfer_system: Option<Arc<CoupledSystem>>,
+    /// Work space of the event handling (no state: any value will do).
+    event_work: EventWork,
 }
 
 /// Work counters of a run.
@@ -379,6 +381,7 @@ impl Simulation {
             scratch: None,
             basis_changed: false,
             transfer_system: None,
+            event_work: EventWork::default(),
         };
         sim.rebuild_segment()?;
         // An integrated phase rebuilds its steps from the anchor.
@@ -800,6 +803,10 @@ impl Simulation {
         self.geometries = active_geometries(&self.model, &self.state);
         self.gap_functionals = self.geometries.iter().map(|g| g.gap_functional()).collect();
         self.scratch = None;
+        // The segment's event functions were made from the old geometry.
+        if let Segment::Free { functions, .. } = &mut self.segment {
+            functions.clear();
+        }
     }
 
     /// The contact states that shape the phase (the key of its system). A
@@ -938,14 +945,7 @@ impl Simulation {
 
     /// Derives the segment from the anchor and the phase.
     fn rebuild_segment(&mut self) -> Result<(), SimError> {
-        self.channels = self
-            .model
-            .stops
-            .iter()
-            .zip(&self.state.stops)
-            .enumerate()
-            .flat_map(|(stop, (m, s))| m.law.watches(s.contact).iter().enumerate().map(move |(slot, &watch)| Channel { stop, slot, watch }))
-            .collect();
+        let channels_changed = self.refresh_channels();
         if let Some(damping) = self.model.transfer.as_ref().and_then(|tr| tr.damping.as_ref()).filter(|_| self.in_transfer()) {
             // Mode transfer in contact with the structure's damping projected
             // on the contact modes: non-proportional, so a coupled phase.
@@ -975,27 +975,16 @@ impl Simulation {
             self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
             return Ok(());
         }
-        let key = self.phase_key();
         let nonlinear = self.model.stops.iter().zip(&self.state.stops).any(|(m, s)| m.law.term(s.contact) == PhaseTerm::Nonlinear);
         if nonlinear {
             self.segment = Segment::Integrated(Box::new(self.integrated_segment()?));
             return Ok(());
         }
-        if key.iter().all(|c| *c == Contact::Open) {
-            let anchor = &self.state.anchor;
-            let f0 = DVector::zeros(self.model.n_modes());
-            let functions = self
-                .channels
-                .iter()
-                .map(|ch| {
-                    let h = self.watched_functional(ch.stop, ch.watch).expect("free phases watch no reaction");
-                    let at_anchor = if self.state.stops[ch.stop].departing[ch.slot] { 0.0 } else { h.value(anchor, &f0) };
-                    (h, at_anchor)
-                })
-                .collect();
-            self.segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), functions };
+        if self.phase_is_free() {
+            self.rebuild_free_segment(channels_changed);
             return Ok(());
         }
+        let key = self.phase_key();
         let system = self.coupled_system(&key)?;
         let (forcing, origin, origin_force, preload) = self.phase_loads(&system);
         let segment = CoupledSegment::new(&system, &forcing, &origin, &origin_force, self.state.anchor_time, &self.state.anchor);
@@ -1025,6 +1014,63 @@ impl Simulation {
             .collect();
         self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
         Ok(())
+    }
+
+    /// Sets the watched event functions of the current contact states;
+    /// whether they changed.
+    fn refresh_channels(&mut self) -> bool {
+        let wanted = self
+            .model
+            .stops
+            .iter()
+            .zip(&self.state.stops)
+            .enumerate()
+            .flat_map(|(stop, (m, s))| m.law.watches(s.contact).iter().enumerate().map(move |(slot, &watch)| Channel { stop, slot, watch }));
+        if wanted.clone().eq(self.channels.iter().copied()) {
+            return false;
+        }
+        self.channels.clear();
+        self.channels.extend(wanted);
+        true
+    }
+
+    /// Whether every stop leaves the current phase's dynamics alone (the
+    /// phase key is all open): the modes fly free.
+    fn phase_is_free(&self) -> bool {
+        let transfer = self.model.transfer.as_ref().map(|tr| tr.stop);
+        self.model
+            .stops
+            .iter()
+            .zip(&self.state.stops)
+            .enumerate()
+            .all(|(i, (m, s))| transfer == Some(i) || s.contact == Contact::Open || m.law.term(s.contact) == PhaseTerm::None)
+    }
+
+    /// A free segment from the anchor. A free segment before it is
+    /// restarted in place, keeping its event functions when the channels
+    /// are the same (an impact on a rigid stop): no allocation per impact.
+    fn rebuild_free_segment(&mut self, channels_changed: bool) {
+        let anchor = &self.state.anchor;
+        let value_at_anchor = |ch: &Channel, h: &Functional| if self.state.stops[ch.stop].departing[ch.slot] { 0.0 } else { h.value_without_load(anchor) };
+        if let Segment::Free { segment, functions } = &mut self.segment {
+            if !channels_changed && functions.len() == self.channels.len() {
+                segment.reset(&self.dynamics, self.state.anchor_time, anchor);
+                for (ch, (h, at_anchor)) in self.channels.iter().zip(functions.iter_mut()) {
+                    *at_anchor = value_at_anchor(ch, h);
+                }
+                return;
+            }
+        }
+        let functions = self
+            .channels
+            .iter()
+            .map(|ch| {
+                let h = self.watched_functional(ch.stop, ch.watch).expect("free phases watch no reaction");
+                let at_anchor = value_at_anchor(ch, &h);
+                (h, at_anchor)
+            })
+            .collect();
+        self.segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), functions };
     }
 
     fn state_at(&self, t: f64, out: &mut ModalState) {
@@ -1160,7 +1206,8 @@ impl Simulation {
                     return Err(SimError::TooManyEvents { time: te, count });
                 }
                 let anchor = self.state.anchor_time;
-                self.handle_events(te, at, at_zero)?;
+                let mut at = at;
+                self.handle_events(te, &mut at, &at_zero)?;
                 if self.state.anchor_time == anchor && matches!(self.segment, Segment::Integrated(_)) {
                     // Nothing switched: search on past the zero.
                     self.state.scan = self.state.scan.max(te);
@@ -1209,7 +1256,7 @@ impl Simulation {
                 // Coupled probes sample the complex coordinates only.
                 self.state_at(l, st);
             }
-            self.handle_events(l, st.clone(), at_zero)?;
+            self.handle_events(l, st, &at_zero)?;
             if std::mem::take(&mut self.basis_changed) {
                 *buffers = ProbeBuffers::new(&self.dynamics);
                 *st = ModalState::zeros(self.model.n_modes());
@@ -1272,24 +1319,29 @@ impl Simulation {
         }
     }
 
-    /// Applies the events found at time `t` (state `st`) and starts a new
-    /// segment there if the state or the phase changed. `at_zero` lists
-    /// the channels at their zero with their jets.
-    fn handle_events(&mut self, t: f64, mut st: ModalState, at_zero: Vec<(usize, Jet)>) -> Result<(), SimError> {
+    /// Applies the events found at time `t` (state `st`, taken: it becomes
+    /// the new anchor, and `st` receives the old one's storage) and starts
+    /// a new segment there if the state or the phase changed. `at_zero`
+    /// lists the channels at their zero with their jets.
+    fn handle_events(&mut self, t: f64, st: &mut ModalState, at_zero: &[(usize, Jet)]) -> Result<(), SimError> {
+        let mut work = std::mem::take(&mut self.event_work);
+        work.clear();
+        let result = self.apply_events(t, st, at_zero, &mut work);
+        self.event_work = work;
+        result
+    }
+
+    fn apply_events(&mut self, t: f64, st: &mut ModalState, at_zero: &[(usize, Jet)], work: &mut EventWork) -> Result<(), SimError> {
         let n_stops = self.model.stops.len();
-        let mut impacts: Vec<(usize, f64)> = Vec::new();
-        let mut sticks: Vec<usize> = Vec::new();
-        let mut releases: Vec<usize> = Vec::new();
-        let mut switches: Vec<(usize, Contact, f64)> = Vec::new();
-        let mut departing: Vec<[bool; 2]> = self.state.stops.iter().map(|s| s.departing).collect();
-        for (c, jet) in at_zero {
+        let EventWork { impacts, sticks, releases, switches, was, contact, restitution, chatter_ends, involved, newly_held, before, impulses, jet } = work;
+        for &(c, jet) in at_zero {
             let Channel { stop: i, slot, watch } = self.channels[c];
             let m = &self.model.stops[i];
             let contact = self.state.stops[i].contact;
-            match m.law.on_zero(contact, watch, &jet, &self.geometries[i], &st) {
-                Switch::Stay => departing[i][slot] = true,
+            match m.law.on_zero(contact, watch, &jet, &self.geometries[i], st) {
+                Switch::Stay => self.state.stops[i].departing[slot] = true,
                 Switch::Graze => {
-                    departing[i][slot] = true;
+                    self.state.stops[i].departing[slot] = true;
                     self.record(t, EventKind::Graze { stop: i });
                 }
                 Switch::Impact => impacts.push((i, -jet.d[1])),
@@ -1303,31 +1355,29 @@ impl Simulation {
             }
         }
         if impacts.is_empty() && sticks.is_empty() && releases.is_empty() && switches.is_empty() {
-            for (s, d) in self.state.stops.iter_mut().zip(departing) {
-                s.departing = d;
-            }
             return Ok(());
         }
         // The balance and the impulses up to the event, in the segment ending here.
         self.account(t);
-        self.close_segment(t, &st);
-        let energy_before = self.model.energy(&st);
-        let was: Vec<Contact> = self.state.stops.iter().map(|s| s.contact).collect();
-        let mut contact = was.clone();
-        for &i in &releases {
+        self.close_segment(t, st);
+        // The energy the events take, for the balance (when kept).
+        let energy_before = self.state.balance.as_ref().map(|_| self.model.energy(st));
+        was.extend(self.state.stops.iter().map(|s| s.contact));
+        contact.extend_from_slice(was);
+        for &i in releases.iter() {
             let counters = &mut self.state.stops[i];
             counters.stuck_time += t - counters.held_since;
             contact[i] = Contact::Open;
-            departing[i] = [true, false];
-            self.state.stops[i].previous_impact = None;
+            counters.departing = [true, false];
+            counters.previous_impact = None;
             self.record(t, EventKind::Release { stop: i });
         }
         // Compliant stops: the phase changes, the state does not.
-        for &(i, next, rate) in &switches {
+        for &(i, next, rate) in switches.iter() {
             let m = &self.model.stops[i];
             contact[i] = next;
-            departing[i] = [true, false];
             let counters = &mut self.state.stops[i];
+            counters.departing = [true, false];
             match next {
                 Contact::Pressed if was[i] == Contact::Open => {
                     counters.impacts += 1;
@@ -1384,9 +1434,8 @@ impl Simulation {
         }
         // The impact: impacting stops with their restitution, newly pressed
         // and still held stops with R = 0 (seed 000 section 2.2).
-        let mut chatter_ends = Vec::new();
-        let mut restitution = vec![0.0; n_stops];
-        for &(i, speed) in &impacts {
+        restitution.resize(n_stops, 0.0);
+        for &(i, speed) in impacts.iter() {
             let Law::Restitution(law) = &self.model.stops[i].law else { unreachable!("only rigid stops impact") };
             let negligible = 16.0 * f64::EPSILON * st.qd.amax() * self.model.stops[i].geometry.w.amax();
             let counters = &mut self.state.stops[i];
@@ -1399,77 +1448,84 @@ impl Simulation {
                 chatter_ends.push(i);
             }
         }
-        let involved: Vec<usize> = (0..n_stops)
-            .filter(|&i| contact[i] == Contact::Held || sticks.contains(&i) || impacts.iter().any(|&(k, _)| k == i))
-            .collect();
-        let before = st.qd.clone();
+        involved.extend((0..n_stops).filter(|&i| contact[i] == Contact::Held || sticks.contains(&i) || impacts.iter().any(|&(k, _)| k == i)));
+        if before.len() == st.qd.len() {
+            before.copy_from(&st.qd);
+        } else {
+            *before = st.qd.clone();
+        }
         if !impacts.is_empty() || !sticks.is_empty() {
-            let rows: Vec<ImpactRow> = involved
-                .iter()
-                .map(|&i| ImpactRow { w: &self.model.stops[i].geometry.w, restitution: restitution[i], side: self.model.stops[i].geometry.side })
-                .collect();
-            let impulses = apply_impact(&mut st.qd, &rows);
-            for (&i, p) in involved.iter().zip(impulses) {
+            let row = |i: usize| {
+                let g = &self.model.stops[i].geometry;
+                ImpactRow { w: &g.w, restitution: restitution[i], side: g.side }
+            };
+            match involved.as_slice() {
+                &[i] => apply_impact(&mut st.qd, &[row(i)], impulses),
+                many => apply_impact(&mut st.qd, &many.iter().map(|&i| row(i)).collect::<Vec<_>>(), impulses),
+            }
+            for (&i, p) in involved.iter().zip(impulses.iter()) {
                 self.state.stops[i].impulse += -self.model.stops[i].geometry.side * p;
             }
         }
-        for &(i, speed) in &impacts {
+        for &(i, speed) in impacts.iter() {
             let g = &self.model.stops[i].geometry;
             // Put the contact point exactly on the stop (seed 000 Fig. 3b).
             let miss = g.target() - g.w.dot(&st.q);
             st.q.axpy(miss / g.w.dot(&g.w), &g.w, 1.0);
-            let lost = energy_loss(&g.w, &before, restitution[i]);
+            let lost = energy_loss(&g.w, before, restitution[i]);
             self.record(
                 t,
                 EventKind::Impact { stop: i, speed, restitution: restitution[i], energy_lost: lost, chatter: chatter_ends.contains(&i) },
             );
-            departing[i] = [true, false];
+            self.state.stops[i].departing = [true, false];
         }
         // After the last impact of a chatter sequence the contact velocity is
         // zero: the beam sticks if the loads press it on (the reaction of seed
         // 000 eq. 32 of the right sign), else it leaves. Zero-velocity
         // contacts found pressed stick.
-        let mut jet_buf = ModalJet::new(if chatter_ends.is_empty() { 0 } else { self.model.n_modes() });
         if !chatter_ends.is_empty() {
-            jet_buf.fill_free(&self.dynamics, t, &st);
-        }
-        for &i in &chatter_ends {
-            let jet = jet_buf.functional(&self.gap_functionals[i], t);
-            if tendency_from(&jet, 2) != Tendency::Opening {
-                contact[i] = Contact::Held;
+            let n = self.dynamics.oscillators.len();
+            let jet = jet.get_or_insert_with(|| ModalJet::new(n));
+            if jet.q[0].len() != n {
+                *jet = ModalJet::new(n);
             }
-        }
-        for &i in &sticks {
-            contact[i] = Contact::Held;
-        }
-        let mut newly_held = Vec::new();
-        for i in 0..n_stops {
-            if contact[i] == Contact::Held {
-                self.state.stops[i].previous_impact = None;
-                if was[i] != Contact::Held {
-                    self.state.stops[i].sticks += 1;
-                    self.state.stops[i].held_since = t;
-                    newly_held.push(i);
-                    departing[i] = [true, false];
+            jet.fill_free(&self.dynamics, t, st);
+            for &i in chatter_ends.iter() {
+                let h = jet.functional(&self.gap_functionals[i], t);
+                if tendency_from(&h, 2) != Tendency::Opening {
+                    contact[i] = Contact::Held;
                 }
             }
         }
-        for (s, (c, d)) in self.state.stops.iter_mut().zip(contact.iter().zip(departing)) {
+        for &i in sticks.iter() {
+            contact[i] = Contact::Held;
+        }
+        for i in 0..n_stops {
+            if contact[i] == Contact::Held {
+                let counters = &mut self.state.stops[i];
+                counters.previous_impact = None;
+                if was[i] != Contact::Held {
+                    counters.sticks += 1;
+                    counters.held_since = t;
+                    counters.departing = [true, false];
+                    newly_held.push(i);
+                }
+            }
+        }
+        for (s, c) in self.state.stops.iter_mut().zip(contact.iter()) {
             s.contact = *c;
-            s.departing = d;
         }
         if contact.iter().any(|c| *c == Contact::Held) {
             // Exactly on the held stops, moving along them (seed 000 eqs. 29-31:
             // project at entry so no drift accumulates).
             let key = self.phase_key();
             let system = self.coupled_system(&key)?;
-            system.project(&self.held_targets(), &mut st);
+            system.project(&self.held_targets(), st);
         }
-        let lost = energy_before - self.model.energy(&st);
-        if let Some(b) = self.state.balance.as_mut() {
-            b.impacts += lost;
+        if let (Some(before), Some(b)) = (energy_before, self.state.balance.as_mut()) {
+            b.impacts += before - self.model.energy(st);
         }
-        self.state.anchor = st;
+        std::mem::swap(&mut self.state.anchor, st);
         self.state.anchor_time = t;
         self.state.scan = t;
         if basis_changed {
@@ -1478,11 +1534,69 @@ impl Simulation {
         }
         self.rebuild_segment()?;
         // Report the sticks with their initial reaction.
-        for i in newly_held {
+        for &i in newly_held.iter() {
             let reaction = self.reaction_at(i, t, &self.state.anchor);
             self.record(t, EventKind::Stick { stop: i, reaction });
         }
         Ok(())
+    }
+}
+
+/// Work space of the event handling, kept between events.
+#[derive(Clone, Debug)]
+struct EventWork {
+    impacts: Vec<(usize, f64)>,
+    sticks: Vec<usize>,
+    releases: Vec<usize>,
+    switches: Vec<(usize, Contact, f64)>,
+    /// Each stop's contact state before the events, and after.
+    was: Vec<Contact>,
+    contact: Vec<Contact>,
+    restitution: Vec<f64>,
+    chatter_ends: Vec<usize>,
+    /// Stops taking part in the impact (impacting, sticking or held).
+    involved: Vec<usize>,
+    newly_held: Vec<usize>,
+    /// The modal velocities before the impact.
+    before: DVector<f64>,
+    impulses: Vec<f64>,
+    /// The free jet after the impact, made when a chatter sequence ends.
+    jet: Option<ModalJet>,
+}
+
+impl Default for EventWork {
+    fn default() -> Self {
+        EventWork {
+            impacts: Vec::new(),
+            sticks: Vec::new(),
+            releases: Vec::new(),
+            switches: Vec::new(),
+            was: Vec::new(),
+            contact: Vec::new(),
+            restitution: Vec::new(),
+            chatter_ends: Vec::new(),
+            involved: Vec::new(),
+            newly_held: Vec::new(),
+            before: DVector::zeros(0),
+            impulses: Vec::new(),
+            jet: None,
+        }
+    }
+}
+
+impl EventWork {
+    fn clear(&mut self) {
+        self.impacts.clear();
+        self.sticks.clear();
+        self.releases.clear();
+        self.switches.clear();
+        self.was.clear();
+        self.contact.clear();
+        self.restitution.clear();
+        self.chatter_ends.clear();
+        self.involved.clear();
+        self.newly_held.clear();
+        self.impulses.clear();
     }
 }
 

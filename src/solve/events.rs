@@ -112,7 +112,22 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     // below. Near a transversal zero the cubic one converges cubically.
     if h > 0.0 && h1 < 0.0 && m3 > 0.0 {
         let (c1, c2) = (h1 - noise(1), (h2 - noise(2)).min(0.0));
-        best = best.max(concave_root(&[h, c1, 0.5 * c2, -m3 / 6.0]));
+        let cubic = concave_root(&[h, c1, 0.5 * c2, -m3 / 6.0]);
+        best = best.max(cubic);
+        if m4 > 0.0 && m4 * cubic < 4.0 * m3 {
+            // The quartic one converges with order four; it is tried where
+            // its remainder is the smaller one at the cubic one's step.
+            let c3 = (h3 - noise(3)).min(0.0);
+            best = best.max(concave_root(&[h, c1, 0.5 * c2, c3 / 6.0, -m4 / 24.0]));
+        }
+    }
+    // Moving away but bending back (h' > 0 > h''): h >= s (h1 + h2 s / 2 +
+    // min(h3, 0) s^2 / 6 - m4 s^3 / 24), the bracket concave and decreasing;
+    // its root reaches nearly the whole flight when h'' dominates (a short
+    // rebound of a chatter sequence).
+    if h >= 0.0 && h1 - noise(1) > 0.0 && h2 < 0.0 && m4 > 0.0 && m4 * best < 4.0 * m3 {
+        let (c2, c3) = ((h2 - noise(2)).min(0.0), (h3 - noise(3)).min(0.0));
+        best = best.max(concave_root(&[h1 - noise(1), 0.5 * c2, c3 / 6.0, -m4 / 24.0]));
     }
     if departing && h == 0.0 && h1 == 0.0 && h2.abs() <= jet.noise[2] && h3.abs() <= jet.noise[3] {
         // Resting on the boundary: every visible derivative is rounding (a
@@ -135,8 +150,8 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
 /// and every other coefficient `<= 0` (the last `< 0`): `p` is decreasing
 /// and concave on `s >= 0`, so a chord between a point with `p >= 0` and
 /// one past the root meets zero before the root, and Newton's method from
-/// a point past the root stays past it. Four rounds from the nearest root
-/// of `c_0 + c_k s^k` leave the returned point within a few percent of the
+/// a point past the root stays past it. Three rounds from the nearest root
+/// of `c_0 + c_j s^j` leave the returned point within a few percent of the
 /// root, always on its left (`p > 0`).
 fn concave_root(c: &[f64]) -> f64 {
     let eval = |s: f64| {
@@ -148,20 +163,24 @@ fn concave_root(c: &[f64]) -> f64 {
         (p, dp)
     };
     let k = c.len() - 1;
-    let lead = -c[k];
-    // Past the root: where the last term alone reaches c_0.
-    let ratio = c[0] / lead;
-    let mut b = match k {
-        3 => ratio.cbrt(),
-        4 => ratio.sqrt().sqrt(),
-        _ => ratio.powf(1.0 / k as f64),
-    };
-    // p <= c0 + c_k s^k for every k: each such root is past p's too.
+    // Past the root: the root of `c_0 + c_j s^j` for any `j` with
+    // `c_j < 0`, as p <= c_0 + c_j s^j; the smallest of those tried. The
+    // k-th root (a cbrt for k = 3) only when the others do not already
+    // lie before the last term's root.
+    let mut b = f64::INFINITY;
     if c[1] < 0.0 {
-        b = b.min(c[0] / -c[1]);
+        b = c[0] / -c[1];
     }
     if k > 2 && c[2] < 0.0 {
         b = b.min((c[0] / -c[2]).sqrt());
+    }
+    if !(-c[k] * b.powi(k as i32) <= c[0]) {
+        let ratio = c[0] / -c[k];
+        b = b.min(match k {
+            3 => ratio.cbrt(),
+            4 => ratio.sqrt().sqrt(),
+            _ => ratio.powf(1.0 / k as f64),
+        });
     }
     if !(b.is_finite() && b > 0.0) {
         return 0.0;
@@ -172,8 +191,9 @@ fn concave_root(c: &[f64]) -> f64 {
         // The other terms vanish: b is the root.
         return b * (1.0 - 1e-9);
     }
-    for _ in 0..4 {
-        if pb >= 0.0 || db >= 0.0 || pa <= 0.0 {
+    for _ in 0..3 {
+        // Bracketed to rounding: nothing left to gain.
+        if pb >= 0.0 || db >= 0.0 || pa <= 0.0 || b - a <= 1e-13 * b {
             break;
         }
         let chord = a + pa * (b - a) / (pa - pb);
@@ -303,6 +323,43 @@ mod tests {
         // The exact first zero of the worst case h = 1e-3 - s - 10 s^3 / 6
         // (h'' = 0 at the probe) is at 9.99998e-4.
         assert!(s < 1e-3 && s > 0.99999e-3, "{s}");
+    }
+
+    /// The first zero by bisection of `p` on `(0, hi)`, with `p(hi) <= 0`.
+    fn first_zero(p: impl Fn(f64) -> f64, hi: f64) -> f64 {
+        let (mut lo, mut hi) = (0.0, hi);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if p(mid) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
+    #[test]
+    fn the_quartic_bound_converges_faster_than_the_cubic_near_a_zero() {
+        // h = 1e-2, h' = -1, |h'''| <= 100, |h''''| <= 10: the cubic step
+        // leaves ~M3 s^3 / 6 = 1.7e-5 behind, the quartic ~M4 s^4 / 24 = 4e-9.
+        // The worst case (fourth derivative -10) has its zero at 1e-2 - 4.2e-9.
+        let b = DerivativeBounds { tau: 10.0, m: [100.0, 100.0, 10.0], floor: [0.0; 4] };
+        let Certified::Clear(s) = certified_step(&jet([1e-2, -1.0, 0.0, 0.0]), &b, false) else { panic!() };
+        let zero = first_zero(|s| 1e-2 - s - 10.0 * s.powi(4) / 24.0, 1.0);
+        assert!(s <= zero && s > zero - 1e-8, "{s} vs {zero}");
+    }
+
+    #[test]
+    fn a_rebound_bending_back_is_certified_to_nearly_its_end() {
+        // Leaving the boundary at h' = 1 with h'' = -2 (a flight of 1), and
+        // |h''| <= 2.5, |h'''| <= 10, |h''''| <= 1: the quadratic bound gives
+        // 0.8, the cubic one 0.53; the quartic one reaches the worst case
+        // h = s - s^2 - s^4 / 24, whose zero is at 0.96.
+        let b = DerivativeBounds { tau: 10.0, m: [2.5, 10.0, 1.0], floor: [0.0; 4] };
+        let Certified::Clear(s) = certified_step(&jet([0.0, 1.0, -2.0, 0.0]), &b, true) else { panic!() };
+        let zero = first_zero(|s| s - s * s - s.powi(4) / 24.0, 0.999);
+        assert!(s <= zero && s > 0.97 * zero, "{s} vs {zero}");
     }
 
     #[test]

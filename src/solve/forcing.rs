@@ -86,21 +86,27 @@ impl ModalForcing {
 
     /// As [`Self::derivatives`], given `e^{i Omega t}` of every harmonic.
     pub fn derivatives_rotated(&self, rotations: &[C64], out: &mut [DVector<f64>]) {
+        let constant = self.constant.as_slice();
         for (m, o) in out.iter_mut().enumerate() {
+            let o = o.as_mut_slice();
             if m == 0 {
-                o.copy_from(&self.constant);
+                let n = o.len().min(constant.len());
+                o[..n].copy_from_slice(&constant[..n]);
             } else {
                 o.fill(0.0);
             }
         }
         for (h, &rotation) in self.harmonics.iter().zip(rotations) {
             let mut factor = rotation;
-            let step = C64::new(0.0, h.omega);
+            let amplitude = h.amplitude.as_slice();
             for o in out.iter_mut() {
-                for (x, b) in o.as_mut_slice().iter_mut().zip(h.amplitude.as_slice()) {
+                let o = o.as_mut_slice();
+                let n = o.len().min(amplitude.len());
+                for (x, b) in o[..n].iter_mut().zip(&amplitude[..n]) {
                     *x += b.re * factor.re - b.im * factor.im;
                 }
-                factor *= step;
+                // Times i Omega.
+                factor = C64::new(-h.omega * factor.im, h.omega * factor.re);
             }
         }
     }

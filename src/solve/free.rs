@@ -89,19 +89,13 @@ enum HarmonicPart {
     FromRest(C64),
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct ModeSegment {
     /// Homogeneous part: `x_h = alpha Ec + beta Es`.
     alpha: f64,
     beta: f64,
     /// Static response to the constant load.
     x_static: f64,
-    parts: Vec<HarmonicPart>,
-    /// `|x_static| + sum |P b|` and `sum |P b| W^m` (m = 1..=5): bounds on the
-    /// derivatives of the steady response, constant along the segment.
-    steady_bounds: [f64; 6],
-    /// `sum |b| W^m` (m = 0..=4) over the near-resonant harmonics.
-    resonant_bounds: [f64; 5],
 }
 
 /// Closed-form free motion from an anchor `(t0, q0, qd0)`.
@@ -109,6 +103,9 @@ struct ModeSegment {
 pub struct FreeSegment {
     pub t0: f64,
     modes: Vec<ModeSegment>,
+    /// Each mode's part of each harmonic load, mode by mode (`modes.len()`
+    /// rows of `harmonics` entries).
+    parts: Vec<HarmonicPart>,
     /// `e^{i Omega t0}` per harmonic.
     start_rotations: Vec<C64>,
 }
@@ -128,37 +125,39 @@ impl ModalState {
 
 impl FreeSegment {
     pub fn new(dynamics: &FreeDynamics, t0: f64, start: &ModalState) -> Self {
-        let start_rotations: Vec<C64> = dynamics.forcing.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t0)).collect();
-        let modes = dynamics
-            .oscillators
-            .iter()
-            .zip(&dynamics.mode_loads)
-            .enumerate()
-            .map(|(j, (osc, load))| {
-                let w2 = osc.omega * osc.omega;
-                let x_static = dynamics.forcing.constant[j] / w2;
-                let mut x0 = start.q[j] - x_static;
-                let mut v0 = start.qd[j];
-                let harmonics = dynamics.forcing.harmonics.iter().zip(&start_rotations).zip(&load.inverse_stiffness);
-                let parts: Vec<HarmonicPart> = harmonics
-                    .map(|((h, rotation), inverse)| {
-                        let b = h.amplitude[j] * rotation;
-                        match inverse {
-                            None => HarmonicPart::FromRest(b),
-                            Some(inverse) => {
-                                let pb = b * inverse;
-                                x0 -= pb.re;
-                                v0 += h.omega * pb.im;
-                                HarmonicPart::Steady(pb)
-                            }
-                        }
-                    })
-                    .collect();
-                let (steady_bounds, resonant_bounds) = (load.steady_bounds, load.resonant_bounds);
-                ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static, parts, steady_bounds, resonant_bounds }
-            })
-            .collect();
-        FreeSegment { t0, modes, start_rotations }
+        let mut segment = FreeSegment { t0, modes: Vec::new(), parts: Vec::new(), start_rotations: Vec::new() };
+        segment.reset(dynamics, t0, start);
+        segment
+    }
+
+    /// Restarts the segment from a new anchor, in place (the event loop
+    /// does this at every impact: no allocation once the sizes are known).
+    pub fn reset(&mut self, dynamics: &FreeDynamics, t0: f64, start: &ModalState) {
+        self.t0 = t0;
+        self.start_rotations.clear();
+        self.start_rotations.extend(dynamics.forcing.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t0)));
+        self.modes.clear();
+        self.parts.clear();
+        for (j, (osc, load)) in dynamics.oscillators.iter().zip(&dynamics.mode_loads).enumerate() {
+            let w2 = osc.omega * osc.omega;
+            let x_static = dynamics.forcing.constant[j] / w2;
+            let mut x0 = start.q[j] - x_static;
+            let mut v0 = start.qd[j];
+            let harmonics = dynamics.forcing.harmonics.iter().zip(&self.start_rotations).zip(&load.inverse_stiffness);
+            self.parts.extend(harmonics.map(|((h, rotation), inverse)| {
+                let b = h.amplitude[j] * rotation;
+                match inverse {
+                    None => HarmonicPart::FromRest(b),
+                    Some(inverse) => {
+                        let pb = b * inverse;
+                        x0 -= pb.re;
+                        v0 += h.omega * pb.im;
+                        HarmonicPart::Steady(pb)
+                    }
+                }
+            }));
+            self.modes.push(ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static });
+        }
     }
 
     /// The modal state at time `t >= t0`.
@@ -176,43 +175,72 @@ impl FreeSegment {
 
     fn evaluate(&self, dynamics: &FreeDynamics, t: f64, out: &mut ModalState, mut increment: Option<&mut Increment>) {
         let s = t - self.t0;
-        // e^{i W s} and, for increments, e^{i W s} - 1 without cancellation,
-        // shared by every mode.
-        let want_increment = increment.is_some();
+        // e^{i W s} and e^{i W s} - 1 without cancellation, shared by
+        // every mode: one sin_cos of the half angle for both.
         let rotation = |h: &super::forcing::Harmonic| {
-            let e = C64::new(0.0, h.omega * s);
-            if want_increment {
-                // One sin_cos (of the half angle) for both.
-                let m1 = expm1_c(e);
-                (C64::new(1.0 + m1.re, m1.im), m1)
-            } else {
-                (e.exp(), C64::new(0.0, 0.0))
-            }
+            let (sh, ch) = (0.5 * h.omega * s).sin_cos();
+            let m1 = C64::new(-2.0 * sh * sh, 2.0 * sh * ch);
+            (C64::new(1.0 + m1.re, m1.im), m1)
         };
+        let harmonics = &dynamics.forcing.harmonics;
         let mut buffer = [(C64::new(0.0, 0.0), C64::new(0.0, 0.0)); 8];
         let many: Vec<(C64, C64)>;
-        let rotations: &[(C64, C64)] = if dynamics.forcing.harmonics.len() <= buffer.len() {
-            for (r, h) in buffer.iter_mut().zip(&dynamics.forcing.harmonics) {
+        let rotations: &[(C64, C64)] = if harmonics.len() <= buffer.len() {
+            for (r, h) in buffer.iter_mut().zip(harmonics) {
                 *r = rotation(h);
             }
-            &buffer[..dynamics.forcing.harmonics.len()]
+            &buffer[..harmonics.len()]
         } else {
-            many = dynamics.forcing.harmonics.iter().map(rotation).collect();
+            many = harmonics.iter().map(rotation).collect();
             &many
         };
-        if let Some(inc) = increment.as_deref_mut() {
-            // e^{i Omega t} = e^{i Omega t0} e^{i Omega s}, for the load's derivatives.
-            inc.rotations.clear();
-            inc.rotations.extend(self.start_rotations.iter().zip(rotations).map(|(a, (r, _))| a * r));
-        }
-        for (j, (seg, osc)) in self.modes.iter().zip(&dynamics.oscillators).enumerate() {
+        let n_harmonics = harmonics.len();
+        let n = self.modes.len();
+        let (q, qd) = (&mut out.q.as_mut_slice()[..n], &mut out.qd.as_mut_slice()[..n]);
+        let oscillators = &dynamics.oscillators[..n];
+        let parts = &self.parts[..n * n_harmonics];
+        let Some(inc) = increment.as_deref_mut() else {
+            for (j, (seg, osc)) in self.modes.iter().zip(oscillators).enumerate() {
+                let (ec, es) = osc.kernels(s);
+                let v0 = seg.beta - osc.a * seg.alpha;
+                let mut x = seg.alpha * ec + seg.beta * es + seg.x_static;
+                let mut v = v0 * ec - (osc.a * v0 + osc.omega * osc.omega * seg.alpha) * es;
+                let mode_parts = &parts[j * n_harmonics..(j + 1) * n_harmonics];
+                for ((part, h), (rot, _)) in mode_parts.iter().zip(harmonics).zip(rotations) {
+                    match part {
+                        HarmonicPart::Steady(pb) => {
+                            let z = pb * rot;
+                            x += z.re;
+                            v -= h.omega * z.im;
+                        }
+                        HarmonicPart::FromRest(b) => {
+                            let (g, gd) = osc.harmonic_from_rest(h.omega, s, *rot);
+                            x += (b * g).re;
+                            v += (b * gd).re;
+                        }
+                    }
+                }
+                q[j] = x;
+                qd[j] = v;
+            }
+            return;
+        };
+        // e^{i Omega t} = e^{i Omega t0} e^{i Omega s}, for the load's derivatives.
+        inc.rotations.clear();
+        inc.rotations.extend(self.start_rotations.iter().zip(rotations).map(|(a, (r, _))| a * r));
+        let dq = &mut inc.dq.as_mut_slice()[..n];
+        let size = &mut inc.size.as_mut_slice()[..n];
+        let steady_q = &mut inc.steady_q.as_mut_slice()[..n];
+        let steady_qd = &mut inc.steady_qd.as_mut_slice()[..n];
+        for (j, (seg, osc)) in self.modes.iter().zip(oscillators).enumerate() {
             let (ec, es, ec_m1) = osc.kernels_and_increment(s);
             let v0 = seg.beta - osc.a * seg.alpha;
             let mut x = seg.alpha * ec + seg.beta * es + seg.x_static;
             let mut v = v0 * ec - (osc.a * v0 + osc.omega * osc.omega * seg.alpha) * es;
-            let (mut dx, mut size) = (seg.alpha * ec_m1 + seg.beta * es, (seg.alpha * ec_m1).abs() + (seg.beta * es).abs());
+            let (mut d, mut sz) = (seg.alpha * ec_m1 + seg.beta * es, (seg.alpha * ec_m1).abs() + (seg.beta * es).abs());
             let (mut xp, mut vp) = (seg.x_static, 0.0);
-            for ((part, h), (rot, rot_m1)) in seg.parts.iter().zip(&dynamics.forcing.harmonics).zip(rotations) {
+            let mode_parts = &parts[j * n_harmonics..(j + 1) * n_harmonics];
+            for ((part, h), (rot, rot_m1)) in mode_parts.iter().zip(harmonics).zip(rotations) {
                 match part {
                     HarmonicPart::Steady(pb) => {
                         let z = pb * rot;
@@ -220,31 +248,27 @@ impl FreeSegment {
                         v -= h.omega * z.im;
                         xp += z.re;
                         vp -= h.omega * z.im;
-                        if want_increment {
-                            let dz = pb * rot_m1;
-                            dx += dz.re;
-                            // |re| + |im| >= |dz|: a size, without hypot.
-                            size += dz.re.abs() + dz.im.abs();
-                        }
+                        let dz = pb * rot_m1;
+                        d += dz.re;
+                        // |re| + |im| >= |dz|: a size, without hypot.
+                        sz += dz.re.abs() + dz.im.abs();
                     }
                     HarmonicPart::FromRest(b) => {
                         let (g, gd) = osc.harmonic_from_rest(h.omega, s, *rot);
-                        x += (b * g).re;
-                        v += (b * gd).re;
                         let bg = b * g;
-                        dx += bg.re;
-                        size += bg.re.abs() + bg.im.abs();
+                        x += bg.re;
+                        v += (b * gd).re;
+                        d += bg.re;
+                        sz += bg.re.abs() + bg.im.abs();
                     }
                 }
             }
-            out.q[j] = x;
-            out.qd[j] = v;
-            if let Some(inc) = increment.as_deref_mut() {
-                inc.dq[j] = dx;
-                inc.size[j] = size;
-                inc.steady_q[j] = xp;
-                inc.steady_qd[j] = vp;
-            }
+            q[j] = x;
+            qd[j] = v;
+            dq[j] = d;
+            size[j] = sz;
+            steady_q[j] = xp;
+            steady_qd[j] = vp;
         }
     }
 }
@@ -293,13 +317,15 @@ impl FreeSegment {
     /// `sample` is the state's split made by [`Self::state_and_increment_at`]
     /// at the same time.
     pub fn fill_bounds(&self, dynamics: &FreeDynamics, state: &ModalState, sample: &Increment, tau: f64, out: &mut ModalBounds) {
-        let (q, qd) = (state.q.as_slice(), state.qd.as_slice());
-        let (sq, sqd) = (sample.steady_q.as_slice(), sample.steady_qd.as_slice());
-        let b = out.b.each_mut().map(|v| v.as_mut_slice());
-        for (j, (seg, osc)) in self.modes.iter().zip(&dynamics.oscillators).enumerate() {
+        let n = dynamics.oscillators.len();
+        let (q, qd) = (&state.q.as_slice()[..n], &state.qd.as_slice()[..n]);
+        let (sq, sqd) = (&sample.steady_q.as_slice()[..n], &sample.steady_qd.as_slice()[..n]);
+        let [b0, b1, b2, b3, b4, b5] = &mut out.b;
+        let mut b = [&mut b0.as_mut_slice()[..n], &mut b1.as_mut_slice()[..n], &mut b2.as_mut_slice()[..n], &mut b3.as_mut_slice()[..n], &mut b4.as_mut_slice()[..n], &mut b5.as_mut_slice()[..n]];
+        for (j, (load, osc)) in dynamics.mode_loads[..n].iter().zip(&dynamics.oscillators).enumerate() {
             let w = osc.omega;
             let (rq, rv) = (q[j] - sq[j], qd[j] - sqd[j]);
-            let resonant = &seg.resonant_bounds;
+            let resonant = &load.resonant_bounds;
             let amp = (rv * rv + w * w * rq * rq).sqrt() + resonant[0] * tau;
             let mut r = [0.0; 6];
             r[0] = amp / w;
@@ -308,7 +334,7 @@ impl FreeSegment {
                 r[m] = resonant[m - 2] + 2.0 * osc.a * r[m - 1] + w * w * r[m - 2];
             }
             for m in 0..6 {
-                b[m][j] = r[m] + seg.steady_bounds[m];
+                b[m][j] = r[m] + load.steady_bounds[m];
             }
         }
     }
@@ -346,24 +372,37 @@ impl ModalJet {
     }
 
     fn fill_from_load(&mut self, dynamics: &FreeDynamics, state: &ModalState) {
-        let [q0, q1, q2, q3, q4] = self.q.each_mut().map(|v| v.as_mut_slice());
-        let [s0, s1, s2, s3, s4] = self.scale.each_mut().map(|v| v.as_mut_slice());
-        let [f0, f1, f2, _] = self.f.each_ref().map(|v| v.as_slice());
-        let n = dynamics.oscillators.len().min(q0.len()).min(q4.len()).min(s4.len()).min(f2.len());
-        let modes = dynamics.oscillators[..n].iter().zip(state.q.as_slice().iter().zip(state.qd.as_slice()));
-        for (j, (osc, (&x, &v))) in modes.enumerate() {
-            let w2 = osc.omega * osc.omega;
-            let two_a = 2.0 * osc.a;
-            let (f0, f1, f2) = (f0[j], f1[j], f2[j]);
-            let a2 = f0 - two_a * v - w2 * x;
-            let a3 = f1 - two_a * a2 - w2 * v;
-            let a4 = f2 - two_a * a3 - w2 * a2;
+        let n = dynamics.oscillators.len().min(self.q[0].len());
+        let oscillators = &dynamics.oscillators[..n];
+        let (x, v) = (&state.q.as_slice()[..n], &state.qd.as_slice()[..n]);
+        // Destructured by hand: `each_mut().map(..)` is an out-of-line call.
+        let [f0, f1, f2, _] = &self.f;
+        let (f0, f1, f2) = (&f0.as_slice()[..n], &f1.as_slice()[..n], &f2.as_slice()[..n]);
+        let [q0, q1, q2, q3, q4] = &mut self.q;
+        let (q0, q1, q2, q3, q4) = (&mut q0.as_mut_slice()[..n], &mut q1.as_mut_slice()[..n], &mut q2.as_mut_slice()[..n], &mut q3.as_mut_slice()[..n], &mut q4.as_mut_slice()[..n]);
+        let [s0, s1, s2, s3, s4] = &mut self.scale;
+        let (s0, s1, s2, s3, s4) = (&mut s0.as_mut_slice()[..n], &mut s1.as_mut_slice()[..n], &mut s2.as_mut_slice()[..n], &mut s3.as_mut_slice()[..n], &mut s4.as_mut_slice()[..n]);
+        for j in 0..n {
+            let osc = &oscillators[j];
+            let (w2, two_a) = (osc.omega * osc.omega, 2.0 * osc.a);
+            let (x, v) = (x[j], v[j]);
+            let a2 = f0[j] - two_a * v - w2 * x;
+            let a3 = f1[j] - two_a * a2 - w2 * v;
+            let a4 = f2[j] - two_a * a3 - w2 * a2;
             let (c0, c1) = (x.abs(), v.abs());
-            let c2 = f0.abs() + two_a * c1 + w2 * c0;
-            let c3 = f1.abs() + two_a * c2 + w2 * c1;
-            let c4 = f2.abs() + two_a * c3 + w2 * c2;
-            (q0[j], q1[j], q2[j], q3[j], q4[j]) = (x, v, a2, a3, a4);
-            (s0[j], s1[j], s2[j], s3[j], s4[j]) = (c0, c1, c2, c3, c4);
+            let c2 = f0[j].abs() + two_a * c1 + w2 * c0;
+            let c3 = f1[j].abs() + two_a * c2 + w2 * c1;
+            let c4 = f2[j].abs() + two_a * c3 + w2 * c2;
+            q0[j] = x;
+            q1[j] = v;
+            q2[j] = a2;
+            q3[j] = a3;
+            q4[j] = a4;
+            s0[j] = c0;
+            s1[j] = c1;
+            s2[j] = c2;
+            s3[j] = c3;
+            s4[j] = c4;
         }
     }
 
@@ -488,7 +527,8 @@ impl ModalBounds {
             return 0.0;
         }
         let (b0, b2, b3, b4) = (self.b[0].as_slice(), self.b[2].as_slice(), self.b[3].as_slice(), self.b[4].as_slice());
-        let q = modal.q.each_ref().map(|v| v.as_slice());
+        let [q0, q1, q2, q3, _] = &modal.q;
+        let q = [q0.as_slice(), q1.as_slice(), q2.as_slice(), q3.as_slice()];
         // Candidate splits, ascending.
         let mut splits = [0usize; 64];
         let mut count = 0;

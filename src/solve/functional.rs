@@ -28,6 +28,11 @@ impl Functional {
             + self.f.as_ref().map_or(0.0, |c| c.dot(f))
     }
 
+    /// The value for a state with no load (`c . f` left out).
+    pub fn value_without_load(&self, state: &crate::solve::ModalState) -> f64 {
+        self.offset + self.q.dot(&state.q) + self.qd.as_ref().map_or(0.0, |b| b.dot(&state.qd))
+    }
+
     pub fn scaled(mut self, s: f64) -> Self {
         self.offset *= s;
         self.q *= s;

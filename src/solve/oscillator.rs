@@ -139,9 +139,15 @@ impl Oscillator {
             let ec_m1 = 0.5 * ((-slow * t).exp_m1() + (-fast * t).exp_m1());
             return (ec, es, ec_m1);
         }
-        let q = if self.dd >= 0.0 { r * r } else { -r * r };
-        let (c0, s0, c0m1) = c0_s0(q);
-        let em1 = (-self.a * t).exp_m1();
+        let (c0, s0, c0m1) = if self.dd > 0.0 && r * r >= 1e-2 {
+            // c0_s0(r^2) without taking the square root back.
+            let (sh, ch) = (0.5 * r).sin_cos();
+            let cm1 = -2.0 * sh * sh;
+            (1.0 + cm1, 2.0 * sh * ch / r, cm1)
+        } else {
+            c0_s0(if self.dd >= 0.0 { r * r } else { -r * r })
+        };
+        let em1 = if self.a == 0.0 { 0.0 } else { (-self.a * t).exp_m1() };
         let e = 1.0 + em1;
         // e c0 - 1 = (e - 1) c0 + (c0 - 1)
         (e * c0, e * t * s0, em1 * c0 + c0m1)
