@@ -26,7 +26,7 @@ use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
 use crate::solve::functional::NOISE;
 use crate::solve::lti::{CoupledSample, CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
-use crate::solve::{DerivativeBounds, FreeDynamics, FreeSegment, Functional, Jet, ModalForcing, ModalState};
+use crate::solve::{FreeDynamics, FreeSegment, Functional, Jet, ModalForcing, ModalState};
 
 /// What happened at an event.
 #[derive(Clone, Debug, PartialEq)]
@@ -1121,13 +1121,21 @@ impl Simulation {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
                     let tau = self.tau_max;
-                    scan.consider(c, jet, |split| {
+                    scan.consider(c, jet, |departing| {
                         if !bounds_ready {
                             seg.fill_bounds(&self.dynamics, st, increment, tau, bound_buf);
                             bounds_ready = true;
                         }
-                        let other = if split { bound_buf.split_step(jet_buf, h, &jet, tau) } else { 0.0 };
-                        (bound_buf.functional(h, tau), other)
+                        let plain = certified_step(&jet, &bound_buf.functional(h, tau), departing);
+                        match plain {
+                            // Within 10 % of where the slope alone meets zero, the
+                            // search is converging on a zero: the split (which
+                            // sharpens the bounds, not the slope) adds nothing.
+                            Certified::Clear(s) if !departing && !(jet.d[1] < 0.0 && s * -jet.d[1] >= 0.9 * jet.d[0]) => {
+                                Certified::Clear(s.max(bound_buf.split_step(jet_buf, h, &jet, tau)))
+                            }
+                            other => other,
+                        }
                     });
                 }
             }
@@ -1141,12 +1149,12 @@ impl Simulation {
                     if self.channels[c].watch != Watch::Reaction {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
-                    scan.consider(c, jet, |_| {
+                    scan.consider(c, jet, |departing| {
                         if !coords_ready {
                             segment.coordinate_bounds_into(system, coupled, self.tau_max, coords);
                             coords_ready = true;
                         }
-                        (segment.bounds(p, coords, self.tau_max), 0.0)
+                        certified_step(&jet, &segment.bounds(p, coords, self.tau_max), departing)
                     });
                 }
             }
@@ -1656,10 +1664,9 @@ impl<'a> Scan<'a> {
     }
 
     /// One function: at its zero (an event), or clear for a certified step;
-    /// the derivative bounds are only computed when needed. With `true`
-    /// (a function not departing) `bounds` also gives another certified
-    /// step (0 if none).
-    fn consider(&mut self, i: usize, jet: Jet, bounds: impl FnOnce(bool) -> (DerivativeBounds, f64)) {
+    /// `step` (given whether the function is departing) certifies it, and
+    /// is only called when needed.
+    fn consider(&mut self, i: usize, jet: Jet, step: impl FnOnce(bool) -> Certified) {
         let departing = self.departing[i];
         if jet.d[0] <= jet.noise[0] {
             if !departing {
@@ -1668,10 +1675,8 @@ impl<'a> Scan<'a> {
             }
             self.keep[i] = true;
         }
-        let (bounds, other) = bounds(!departing);
-        match certified_step(&jet, &bounds, departing) {
+        match step(departing) {
             Certified::Clear(s) => {
-                let s = s.max(other);
                 if s < self.step {
                     self.step = s;
                     self.limiting = Some((i, jet));

@@ -8,7 +8,7 @@ use nalgebra::DVector;
 
 use super::forcing::ModalForcing;
 use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
-use super::oscillator::{expm1_c, Oscillator, C64};
+use super::oscillator::{Oscillator, C64};
 
 /// The free dynamics: one oscillator per mode and the modal load.
 #[derive(Clone, Debug, PartialEq)]
@@ -321,7 +321,7 @@ impl FreeSegment {
         let (q, qd) = (&state.q.as_slice()[..n], &state.qd.as_slice()[..n]);
         let (sq, sqd) = (&sample.steady_q.as_slice()[..n], &sample.steady_qd.as_slice()[..n]);
         let [b0, b1, b2, b3, b4, b5] = &mut out.b;
-        let mut b = [&mut b0.as_mut_slice()[..n], &mut b1.as_mut_slice()[..n], &mut b2.as_mut_slice()[..n], &mut b3.as_mut_slice()[..n], &mut b4.as_mut_slice()[..n], &mut b5.as_mut_slice()[..n]];
+        let b = [&mut b0.as_mut_slice()[..n], &mut b1.as_mut_slice()[..n], &mut b2.as_mut_slice()[..n], &mut b3.as_mut_slice()[..n], &mut b4.as_mut_slice()[..n], &mut b5.as_mut_slice()[..n]];
         for (j, (load, osc)) in dynamics.mode_loads[..n].iter().zip(&dynamics.oscillators).enumerate() {
             let w = osc.omega;
             let (rq, rv) = (q[j] - sq[j], qd[j] - sqd[j]);

@@ -464,7 +464,7 @@ impl CoupledSegment {
             let ls = l * s;
             let e = if sys.conjugate_of_previous[k] { previous.conj() } else { expm1_c(ls) };
             previous = e;
-            let forced_const = if ls.norm() < 1e-5 { self.g_const[k] * phi1(ls) * s } else { self.g_const[k] * e * sys.eig_inv[k] };
+            let forced_const = if ls.norm_sqr() < 1e-10 { self.g_const[k] * phi1(ls) * s } else { self.g_const[k] * e * sys.eig_inv[k] };
             let mut z = self.z0[k] + e * self.z0[k] + forced_const;
             for (i, h) in self.harmonics.iter().enumerate() {
                 match (h.direct[k], rotations.get(i)) {
