@@ -50,6 +50,9 @@ pub struct Model {
     pub max_probes_per_step: u64,
     /// Accumulate seed 003's energy balance (FE_j, DE_j, impact losses).
     pub energy_balance: bool,
+    /// Keep each stop's impulse (the scene outputs it); without it the
+    /// impulses are not integrated and read 0.
+    pub impulses: bool,
     /// Mode transfer (seed 001's MTM, RMTM) for the one tip stop that asks
     /// for it: the basis its contact phases use.
     pub transfer: Option<TransferBasis>,
@@ -269,6 +272,7 @@ impl Model {
             max_events_per_step: scene.solver.max_events_per_step,
             max_probes_per_step: scene.solver.max_probes_per_step.unwrap_or_else(|| default_probe_budget(n)),
             energy_balance: scene.outputs.energy_balance,
+            impulses: scene.outputs.impulse,
             transfer,
         })
     }

@@ -641,8 +641,12 @@ impl Simulation {
         }
     }
 
-    /// The impulse stop `i` has delivered since the start.
+    /// The impulse stop `i` has delivered since the start (0 when the
+    /// model does not keep impulses).
     pub fn impulse_total(&self, i: usize) -> f64 {
+        if !self.model.impulses {
+            return 0.0;
+        }
         self.state.stops[i].impulse + self.segment_impulse(i, self.state.time, &self.state.current)
     }
 
@@ -683,7 +687,7 @@ impl Simulation {
     /// Closes the current segment at `t` (state `at_t`): its impulses join
     /// the stops' totals before a new segment starts.
     fn close_segment(&mut self, t: f64, at_t: &ModalState) {
-        for i in 0..self.model.stops.len() {
+        for i in (0..self.model.stops.len()).filter(|_| self.model.impulses) {
             let p = self.segment_impulse(i, t, at_t);
             self.state.stops[i].impulse += p;
         }
@@ -1168,7 +1172,7 @@ impl Simulation {
         if t_end < self.state.time {
             return Err(SimError::Backwards { now: self.state.time, requested: t_end });
         }
-        if t_end > self.state.time {
+        if t_end > self.state.time && self.model.impulses {
             for i in 0..self.model.stops.len() {
                 self.state.stops[i].impulse_mark = self.impulse_total(i);
             }
@@ -1471,7 +1475,7 @@ impl Simulation {
                 &[i] => apply_impact(&mut st.qd, &[row(i)], impulses),
                 many => apply_impact(&mut st.qd, &many.iter().map(|&i| row(i)).collect::<Vec<_>>(), impulses),
             }
-            for (&i, p) in involved.iter().zip(impulses.iter()) {
+            for (&i, p) in involved.iter().zip(impulses.iter()).filter(|_| self.model.impulses) {
                 self.state.stops[i].impulse += -self.model.stops[i].geometry.side * p;
             }
         }
