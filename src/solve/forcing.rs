@@ -87,16 +87,29 @@ impl ModalForcing {
     /// As [`Self::derivatives`], given `e^{i Omega t}` of every harmonic.
     pub fn derivatives_rotated(&self, rotations: &[C64], out: &mut [DVector<f64>]) {
         let constant = self.constant.as_slice();
+        let mut harmonics = self.harmonics.iter().zip(rotations);
+        // The first harmonic (or none) sets the values, the others add on.
+        let first = harmonics.next();
+        let mut factor = first.map_or(C64::new(0.0, 0.0), |(_, &r)| r);
         for (m, o) in out.iter_mut().enumerate() {
             let o = o.as_mut_slice();
-            if m == 0 {
-                let n = o.len().min(constant.len());
-                o[..n].copy_from_slice(&constant[..n]);
-            } else {
-                o.fill(0.0);
+            let n = o.len().min(constant.len());
+            let o = &mut o[..n];
+            match first {
+                Some((h, _)) => {
+                    let amplitude = &h.amplitude.as_slice()[..n];
+                    for ((x, b), c) in o.iter_mut().zip(amplitude).zip(&constant[..n]) {
+                        let base = if m == 0 { *c } else { 0.0 };
+                        *x = base + (b.re * factor.re - b.im * factor.im);
+                    }
+                    // Times i Omega.
+                    factor = C64::new(-h.omega * factor.im, h.omega * factor.re);
+                }
+                None if m == 0 => o.copy_from_slice(&constant[..n]),
+                None => o.fill(0.0),
             }
         }
-        for (h, &rotation) in self.harmonics.iter().zip(rotations) {
+        for (h, &rotation) in harmonics {
             let mut factor = rotation;
             let amplitude = h.amplitude.as_slice();
             for o in out.iter_mut() {
@@ -105,7 +118,6 @@ impl ModalForcing {
                 for (x, b) in o[..n].iter_mut().zip(&amplitude[..n]) {
                     *x += b.re * factor.re - b.im * factor.im;
                 }
-                // Times i Omega.
                 factor = C64::new(-h.omega * factor.im, h.omega * factor.re);
             }
         }
@@ -124,5 +136,33 @@ impl ModalForcing {
             b += h.amplitude[j].norm() * h.omega.powi(m as i32);
         }
         b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shared_derivatives_match_each_one_alone_and_a_finite_difference() {
+        // A constant and three harmonics on three modes.
+        let mut f = ModalForcing { constant: DVector::from_vec(vec![0.5, -1.0, 2.0]), harmonics: Vec::new() };
+        f.add_harmonic(1.3, DVector::from_vec(vec![C64::new(1.0, 0.2), C64::new(0.0, -2.0), C64::new(0.3, 0.0)]));
+        f.add_harmonic(7.0, DVector::from_vec(vec![C64::new(-0.4, 0.1), C64::new(0.5, 0.5), C64::new(0.0, 0.0)]));
+        f.add_harmonic(0.2, DVector::from_vec(vec![C64::new(0.0, 3.0), C64::new(1.0, 0.0), C64::new(-2.0, 1.0)]));
+        let t = 2.7;
+        let mut all: [DVector<f64>; 4] = std::array::from_fn(|_| DVector::zeros(3));
+        f.derivatives(t, &mut all);
+        let mut one = DVector::zeros(3);
+        for m in 0..4 {
+            f.derivative(t, m, &mut one);
+            assert!((&all[m as usize] - &one).amax() < 1e-12, "m = {m}: {} vs {one}", all[m as usize]);
+        }
+        // The first derivative against a central difference of the values.
+        let (mut ahead, mut behind) = (DVector::zeros(3), DVector::zeros(3));
+        let dt = 1e-6;
+        f.derivative(t + dt, 0, &mut ahead);
+        f.derivative(t - dt, 0, &mut behind);
+        assert!(((ahead - behind) / (2.0 * dt) - &all[1]).amax() < 1e-6);
     }
 }
