@@ -1544,7 +1544,13 @@ impl Simulation {
             self.refresh_basis();
             self.basis_changed = true;
         }
-        self.rebuild_segment()?;
+        if !basis_changed && was == contact && matches!(self.segment, Segment::Free { .. }) {
+            // An impact in free flight: the same free phase and event
+            // functions from the new anchor.
+            self.rebuild_free_segment(false);
+        } else {
+            self.rebuild_segment()?;
+        }
         // Report the sticks with their initial reaction.
         for &i in newly_held.iter() {
             let reaction = self.reaction_at(i, t, &self.state.anchor);
