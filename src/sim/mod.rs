@@ -1112,10 +1112,20 @@ impl Simulation {
                 if self.channels.is_empty() {
                     return scan.finish();
                 }
-                jet_buf.fill_free_rotated(&self.dynamics, &increment.rotations, st);
+                // The modal jet arrays are only filled for functions of the
+                // velocity or the load, and for the mode split.
+                let mut modal_ready = false;
                 let mut bounds_ready = false;
                 for (c, (h, at_anchor)) in functions.iter().enumerate() {
-                    let mut jet = jet_buf.functional(h, t);
+                    let mut jet = if h.qd.is_none() && h.f.is_none() {
+                        ModalJet::displacement_jet(&self.dynamics, &increment.rotations, st, h, t)
+                    } else {
+                        if !modal_ready {
+                            jet_buf.fill_free_rotated(&self.dynamics, &increment.rotations, st);
+                            modal_ready = true;
+                        }
+                        jet_buf.functional(h, t)
+                    };
                     if h.qd.is_none() {
                         // The value itself from the anchor's plus the increment.
                         let (dh, noise) = increment.functional(&h.q);
@@ -1136,6 +1146,10 @@ impl Simulation {
                             // search is converging on a zero: the split (which
                             // sharpens the bounds, not the slope) adds nothing.
                             Certified::Clear(s) if !departing && !(jet.d[1] < 0.0 && s * -jet.d[1] >= 0.9 * jet.d[0]) => {
+                                if !modal_ready {
+                                    jet_buf.fill_free_rotated(&self.dynamics, &increment.rotations, st);
+                                    modal_ready = true;
+                                }
                                 Certified::Clear(s.max(bound_buf.split_step(jet_buf, h, &jet, tau)))
                             }
                             other => other,

@@ -406,6 +406,61 @@ impl ModalJet {
         }
     }
 
+    /// The jet of a displacement functional `offset + a . q` at time `t`,
+    /// straight from the state and the loads' rotations `e^{i Omega t}`:
+    /// the sums of [`Self::fill_free_rotated`] then [`Self::functional`],
+    /// in the same order (the same bits), without the modal arrays.
+    pub fn displacement_jet(dynamics: &FreeDynamics, rotations: &[C64], state: &ModalState, h: &Functional, t: f64) -> Jet {
+        debug_assert!(h.qd.is_none() && h.f.is_none());
+        let n = dynamics.oscillators.len().min(h.q.len());
+        let (a, x, v) = (&h.q.as_slice()[..n], &state.q.as_slice()[..n], &state.qd.as_slice()[..n]);
+        let constant = &dynamics.forcing.constant.as_slice()[..n];
+        let harmonics = &dynamics.forcing.harmonics;
+        let (mut sum, mut size) = ([0.0; 4], [0.0; 4]);
+        for j in 0..n {
+            // f, f' at this mode, as `ModalForcing::derivatives_rotated` sums them.
+            let (mut f0, mut f1) = (constant[j], 0.0);
+            for (k, (hk, &rotation)) in harmonics.iter().zip(rotations).enumerate() {
+                let b = hk.amplitude[j];
+                let d0 = b.re * rotation.re - b.im * rotation.im;
+                let r1 = C64::new(-hk.omega * rotation.im, hk.omega * rotation.re);
+                let d1 = b.re * r1.re - b.im * r1.im;
+                if k == 0 {
+                    (f0, f1) = (f0 + d0, 0.0 + d1);
+                } else {
+                    (f0, f1) = (f0 + d0, f1 + d1);
+                }
+            }
+            // `ModalJet::fill_from_load`.
+            let osc = &dynamics.oscillators[j];
+            let (w2, two_a) = (osc.omega * osc.omega, 2.0 * osc.a);
+            let (xj, vj) = (x[j], v[j]);
+            let a2 = f0 - two_a * vj - w2 * xj;
+            let a3 = f1 - two_a * a2 - w2 * vj;
+            let (c0, c1) = (xj.abs(), vj.abs());
+            let c2 = f0.abs() + two_a * c1 + w2 * c0;
+            let c3 = f1.abs() + two_a * c2 + w2 * c1;
+            // `weighted_sums`.
+            let w = a[j];
+            sum[0] += w * xj;
+            sum[1] += w * vj;
+            sum[2] += w * a2;
+            sum[3] += w * a3;
+            let wa = w.abs();
+            size[0] += wa * c0;
+            size[1] += wa * c1;
+            size[2] += wa * c2;
+            size[3] += wa * c3;
+        }
+        let mut jet = Jet { d: sum, ..Jet::default() };
+        jet.d[0] += h.offset;
+        size[0] += h.offset.abs();
+        for m in 0..4 {
+            jet.noise[m] = NOISE * size[m];
+        }
+        jet.with_time_uncertainty(t)
+    }
+
     /// The value and first three derivatives of a functional at the jet's
     /// time `t`.
     pub fn functional(&self, h: &Functional, t: f64) -> Jet {
@@ -586,6 +641,32 @@ impl ModalBounds {
 mod tests {
     use super::*;
     use nalgebra::dvector;
+
+    #[test]
+    fn the_displacement_jet_is_the_modal_jets_functional_bit_for_bit() {
+        // Two harmonics (one resonant with mode 1), damping, an offset: the
+        // fused sums must give exactly what the modal arrays give.
+        let oscs = vec![Oscillator::new(1.0, 0.0), Oscillator::new(4.0, 0.1), Oscillator::new(9.0, 2.0)];
+        let mut forcing = ModalForcing::zero(3);
+        forcing.constant = dvector![0.3, -0.2, 0.1];
+        forcing.add_harmonic(1.0, dvector![C64::new(0.0, -1.0), C64::new(0.0, -0.5), C64::new(0.2, 0.0)]);
+        forcing.add_harmonic(2.5, dvector![C64::new(0.4, 0.1), C64::new(-0.3, 0.0), C64::new(0.0, 0.7)]);
+        let dynamics = FreeDynamics::new(oscs, forcing);
+        let start = ModalState { q: dvector![0.1, 0.2, -0.1], qd: dvector![-0.3, 0.4, 0.2] };
+        let seg = FreeSegment::new(&dynamics, 0.4, &start);
+        let h = Functional::of_position(1.2, dvector![0.9, -0.6, 0.3]);
+        let (mut st, mut inc, mut modal) = (ModalState::zeros(3), Increment::new(3), ModalJet::new(3));
+        for t in [0.4, 0.41, 1.7, 12.3] {
+            seg.state_and_increment_at(&dynamics, t, &mut st, &mut inc);
+            modal.fill_free_rotated(&dynamics, &inc.rotations, &st);
+            let expected = modal.functional(&h, t);
+            assert_eq!(ModalJet::displacement_jet(&dynamics, &inc.rotations, &st, &h, t), expected, "t = {t}");
+        }
+        // Without loads varying in time.
+        let still = FreeDynamics::new(dynamics.oscillators.clone(), ModalForcing { constant: dvector![0.3, -0.2, 0.1], harmonics: Vec::new() });
+        modal.fill_free_rotated(&still, &[], &start);
+        assert_eq!(ModalJet::displacement_jet(&still, &[], &start, &h, 0.0), modal.functional(&h, 0.0));
+    }
 
     #[test]
     fn the_increment_is_the_displacement_since_the_anchor() {
