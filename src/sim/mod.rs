@@ -1135,12 +1135,18 @@ impl Simulation {
                         jet.noise[0] = jet.noise[0].max(tol);
                     }
                     let tau = self.tau_max;
+                    let displacement = h.qd.is_none() && h.f.is_none();
                     scan.consider(c, jet, |departing| {
-                        if !bounds_ready {
-                            seg.fill_bounds(&self.dynamics, st, increment, tau, bound_buf);
-                            bounds_ready = true;
-                        }
-                        let plain = certified_step(&jet, &bound_buf.functional(h, tau), departing);
+                        let bounds = if displacement {
+                            seg.displacement_bounds(&self.dynamics, st, increment, tau, h)
+                        } else {
+                            if !bounds_ready {
+                                seg.fill_bounds(&self.dynamics, st, increment, tau, bound_buf);
+                                bounds_ready = true;
+                            }
+                            bound_buf.functional(h, tau)
+                        };
+                        let plain = certified_step(&jet, &bounds, departing);
                         match plain {
                             // Within 10 % of where the slope alone meets zero, the
                             // search is converging on a zero: the split (which
@@ -1149,6 +1155,10 @@ impl Simulation {
                                 if !modal_ready {
                                     jet_buf.fill_free_rotated(&self.dynamics, &increment.rotations, st);
                                     modal_ready = true;
+                                }
+                                if !bounds_ready {
+                                    seg.fill_bounds(&self.dynamics, st, increment, tau, bound_buf);
+                                    bounds_ready = true;
                                 }
                                 Certified::Clear(s.max(bound_buf.split_step(jet_buf, h, &jet, tau)))
                             }

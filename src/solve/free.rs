@@ -308,6 +308,36 @@ impl Increment {
 }
 
 impl FreeSegment {
+    /// [`Self::fill_bounds`] then [`ModalBounds::functional`] for a
+    /// displacement functional `offset + a . q`, in the same order (the same
+    /// bits), without the per-mode arrays.
+    pub fn displacement_bounds(&self, dynamics: &FreeDynamics, state: &ModalState, sample: &Increment, tau: f64, h: &Functional) -> DerivativeBounds {
+        debug_assert!(h.qd.is_none() && h.f.is_none());
+        let n = dynamics.oscillators.len().min(h.q.len());
+        let a = &h.q.as_slice()[..n];
+        let (q, qd) = (&state.q.as_slice()[..n], &state.qd.as_slice()[..n]);
+        let (sq, sqd) = (&sample.steady_q.as_slice()[..n], &sample.steady_qd.as_slice()[..n]);
+        let (mut m, mut level) = ([0.0; 3], 0.0);
+        for (j, (load, osc)) in dynamics.mode_loads[..n].iter().zip(&dynamics.oscillators).enumerate() {
+            let w = osc.omega;
+            let (rq, rv) = (q[j] - sq[j], qd[j] - sqd[j]);
+            let resonant = &load.resonant_bounds;
+            let amp = (rv * rv + w * w * rq * rq).sqrt() + resonant[0] * tau;
+            let mut r = [0.0; 5];
+            r[0] = amp / w;
+            r[1] = amp;
+            for k in 2..5 {
+                r[k] = resonant[k - 2] + 2.0 * osc.a * r[k - 1] + w * w * r[k - 2];
+            }
+            let wa = a[j].abs();
+            for k in 0..3 {
+                m[k] += wa * (r[k + 2] + load.steady_bounds[k + 2]);
+            }
+            level += wa * (r[0] + load.steady_bounds[0]);
+        }
+        DerivativeBounds { tau, m, floor: [NOISE * level, 0.0, 0.0, 0.0] }
+    }
+
     /// Bounds on `|q_j^(m)|` over `[t, t + tau]`: the steady response to the
     /// loads far from resonance is known exactly (`|x_p^(m)| <= sum |P b| W^m`),
     /// and what remains obeys the oscillator loaded only by the near-resonant
@@ -643,7 +673,7 @@ mod tests {
     use nalgebra::dvector;
 
     #[test]
-    fn the_displacement_jet_is_the_modal_jets_functional_bit_for_bit() {
+    fn displacement_jets_and_bounds_are_the_modal_arrays_sums_bit_for_bit() {
         // Two harmonics (one resonant with mode 1), damping, an offset: the
         // fused sums must give exactly what the modal arrays give.
         let oscs = vec![Oscillator::new(1.0, 0.0), Oscillator::new(4.0, 0.1), Oscillator::new(9.0, 2.0)];
@@ -661,6 +691,9 @@ mod tests {
             modal.fill_free_rotated(&dynamics, &inc.rotations, &st);
             let expected = modal.functional(&h, t);
             assert_eq!(ModalJet::displacement_jet(&dynamics, &inc.rotations, &st, &h, t), expected, "t = {t}");
+            let mut bounds = ModalBounds::new(&dynamics);
+            seg.fill_bounds(&dynamics, &st, &inc, 0.8, &mut bounds);
+            assert_eq!(seg.displacement_bounds(&dynamics, &st, &inc, 0.8, &h), bounds.functional(&h, 0.8), "t = {t}");
         }
         // Without loads varying in time.
         let still = FreeDynamics::new(dynamics.oscillators.clone(), ModalForcing { constant: dvector![0.3, -0.2, 0.1], harmonics: Vec::new() });
