@@ -49,7 +49,9 @@
 //! references to 1e-15 .. 4e-14, `report/summary.md`); a run with another
 //! number of events has no error (it is "wrong", listed with its counts).
 //! Timing: the minimum over repeats (at least 5, and at least 0.2 s of runs)
-//! of the whole run, set-up included, for both.
+//! of the whole run, set-up included, for both; the whole sweep is timed in
+//! three passes and each run keeps its fastest, so that a stretch of a busy
+//! shared machine does not land on one solver only.
 //!
 //! The accuracy table: for every level 1e-4 .. 1e-13 (and beamstop's own),
 //! the fastest peer run whose error is at most the level, the fastest
@@ -420,6 +422,7 @@ fn main() {
     let quick = args.iter().any(|a| a == "--quick");
     let only = arg("--scene");
     let reps = if quick { 2 } else { 5 };
+    let passes = if quick { 1 } else { 3 };
 
     let (end_err, dense_err, _) = dop853::self_check();
     assert!(end_err < 1e-10 && dense_err < 1e-10, "DOP853 port is wrong");
@@ -464,38 +467,55 @@ fn main() {
             }
             continue;
         }
-        // beamstop.
-        for tol in [0.0, 1e-9, 1e-6] {
-            let mut scene = case.scene.clone();
-            scene.solver.event_tolerance = tol;
-            let m = Model::build(&scene).expect("model");
-            match timed(reps, || beamstop_run(&m, case.t_end)) {
-                Ok((sec, events)) => {
-                    let error = event_error(&reference, &events);
-                    rows.push(Row { case: case.name, solver: "beamstop".into(), setting: format!("event_tolerance={tol:e}"), seconds: sec, events, error });
+        let mut case_rows: Vec<Row> = Vec::new();
+        for pass in 0..passes {
+            // The k-th run of this pass: new in the first, its fastest time kept after.
+            let mut k = 0;
+            let mut keep = |row: Row| {
+                if pass == 0 {
+                    case_rows.push(row);
+                } else {
+                    let kept = &mut case_rows[k];
+                    kept.seconds = kept.seconds.min(row.seconds);
                 }
-                Err(e) => println!("  beamstop {tol:e}: failed: {e}"),
-            }
-        }
-        // The peer.
-        let beam = Beam::new(&model);
-        let y0: Vec<f64> = model.initial.q.iter().chain(model.initial.qd.iter()).copied().collect();
-        for (interior, atol_factor) in [(INTERIOR, 1.0), (INTERIOR, 0.1), (0, 1.0), (0, 0.1)] {
-            for &rtol in &rtols {
-                let atol = rtol * atol_factor;
-                let setting = format!("rtol={rtol:.0e} atol=rtol*{atol_factor} samples={}", interior + 1);
-                match timed(reps, || peer(&beam, &y0, start_stuck, case.t_end, rtol, atol, interior)) {
+                k += 1;
+            };
+            // beamstop.
+            for tol in [0.0, 1e-9, 1e-6] {
+                let mut scene = case.scene.clone();
+                scene.solver.event_tolerance = tol;
+                let m = Model::build(&scene).expect("model");
+                match timed(reps, || beamstop_run(&m, case.t_end)) {
                     Ok((sec, events)) => {
                         let error = event_error(&reference, &events);
-                        rows.push(Row { case: case.name, solver: "dop853".into(), setting, seconds: sec, events, error });
+                        keep(Row { case: case.name, solver: "beamstop".into(), setting: format!("event_tolerance={tol:e}"), seconds: sec, events, error });
                     }
-                    Err(e) => {
-                        println!("  dop853 {setting}: failed: {e}");
-                        rows.push(Row { case: case.name, solver: "dop853".into(), setting, seconds: f64::NAN, events: Events::default(), error: None });
+                    Err(e) => panic!("beamstop {tol:e}: failed: {e}"),
+                }
+            }
+            // The peer.
+            let beam = Beam::new(&model);
+            let y0: Vec<f64> = model.initial.q.iter().chain(model.initial.qd.iter()).copied().collect();
+            for (interior, atol_factor) in [(INTERIOR, 1.0), (INTERIOR, 0.1), (0, 1.0), (0, 0.1)] {
+                for &rtol in &rtols {
+                    let atol = rtol * atol_factor;
+                    let setting = format!("rtol={rtol:.0e} atol=rtol*{atol_factor} samples={}", interior + 1);
+                    match timed(reps, || peer(&beam, &y0, start_stuck, case.t_end, rtol, atol, interior)) {
+                        Ok((sec, events)) => {
+                            let error = event_error(&reference, &events);
+                            keep(Row { case: case.name, solver: "dop853".into(), setting, seconds: sec, events, error });
+                        }
+                        Err(e) => {
+                            if pass == 0 {
+                                println!("  dop853 {setting}: failed: {e}");
+                            }
+                            keep(Row { case: case.name, solver: "dop853".into(), setting, seconds: f64::NAN, events: Events::default(), error: None });
+                        }
                     }
                 }
             }
         }
+        rows.extend(case_rows);
         println!("  {:<9} {:<32} {:>10} {:>8} {:>7} {:>7} {:>10}", "solver", "setting", "ms", "impacts", "sticks", "work", "error");
         for r in rows.iter().filter(|r| r.case == case.name) {
             let err = r.error.map_or("counts differ".to_string(), |e| format!("{e:.2e}"));

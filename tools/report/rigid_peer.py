@@ -2,7 +2,7 @@
 
 `python -m tools.report.rigid_peer [--run]` reads report/rigid_peer/runs.csv
 and levels.csv (written by `cargo run --release --example rigid_peer --
---csv ... --levels-csv ...`; `--run` runs it first, ~25 s) and writes
+--csv ... --levels-csv ...`; `--run` runs it first, about 70 s) and writes
 report/rigid_peer/work_precision.png (error in the event times against run
 time, S2 and S3, beamstop and the compiled DOP853 peer) and
 report/rigid_peer/summary.md (the accuracy-level table of speed ratios).
@@ -116,7 +116,7 @@ def summary(runs: list[dict], levels: list[dict]) -> str:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--run", action="store_true", help="run the example first (~25 s)")
+    ap.add_argument("--run", action="store_true", help="run the example first (about 70 s)")
     args = ap.parse_args(argv)
     OUT.mkdir(parents=True, exist_ok=True)
     if args.run:
