@@ -1,13 +1,7 @@
 //! Brent's root finder (zeroin), shared by the compiled peers.
 
 /// Brent's method (zeroin) on `[a, b]` with `fa`, `fb` of opposite signs.
-pub fn brent(
-    mut g: impl FnMut(f64) -> f64,
-    mut a: f64,
-    mut fa: f64,
-    mut b: f64,
-    mut fb: f64,
-) -> f64 {
+pub fn brent(mut g: impl FnMut(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
     let eps = f64::EPSILON;
     let (mut c, mut fc) = (a, fa);
     let mut d = b - a;

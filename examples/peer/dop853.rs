@@ -62,14 +62,8 @@ const C: [f64; N_STAGES_EXTENDED] = [
 /// The non-zero entries `a_ij` of rows 1..=15 (row 12 is the weights `b`),
 /// as `(j, a_ij)` (scipy `dop853_coefficients.A`).
 const A1: &[(usize, f64)] = &[(0, 5.26001519587677318785587544488e-2)];
-const A2: &[(usize, f64)] = &[
-    (0, 1.97250569845378994544595329183e-2),
-    (1, 5.91751709536136983633785987549e-2),
-];
-const A3: &[(usize, f64)] = &[
-    (0, 2.95875854768068491816892993775e-2),
-    (2, 8.87627564304205475450678981324e-2),
-];
+const A2: &[(usize, f64)] = &[(0, 1.97250569845378994544595329183e-2), (1, 5.91751709536136983633785987549e-2)];
+const A3: &[(usize, f64)] = &[(0, 2.95875854768068491816892993775e-2), (2, 8.87627564304205475450678981324e-2)];
 const A4: &[(usize, f64)] = &[
     (0, 2.41365134159266685502369798665e-1),
     (2, -8.84549479328286085344864962717e-1),
@@ -189,23 +183,14 @@ const E5: &[(usize, f64)] = &[
 ];
 /// The order-3 estimator `E3 = b - bhat3` (scipy: B with three corrections).
 const E3: &[(usize, f64)] = &[
-    (
-        0,
-        5.42937341165687622380535766363e-2 - 0.244094488188976377952755905512,
-    ),
+    (0, 5.42937341165687622380535766363e-2 - 0.244094488188976377952755905512),
     (5, 4.45031289275240888144113950566),
     (6, 1.89151789931450038304281599044),
     (7, -5.8012039600105847814672114227),
-    (
-        8,
-        3.1116436695781989440891606237e-1 - 0.733846688281611857341361741547,
-    ),
+    (8, 3.1116436695781989440891606237e-1 - 0.733846688281611857341361741547),
     (9, -1.52160949662516078556178806805e-1),
     (10, 2.01365400804030348374776537501e-1),
-    (
-        11,
-        4.47106157277725905176885569043e-2 - 0.220588235294117647058823529412e-1,
-    ),
+    (11, 4.47106157277725905176885569043e-2 - 0.220588235294117647058823529412e-1),
 ];
 
 /// Dense-output rows 3..=6 (scipy `dop853_coefficients.D`), stages 0..16.
@@ -332,26 +317,11 @@ impl<F: Rhs> Dop853<F> {
     /// A solver at `(t0, y0)` towards `t_bound`, tolerances `rtol` and
     /// `atol` (one value, or one per component); `first_step: None` selects
     /// it as scipy does.
-    pub fn new(
-        rhs: F,
-        t0: f64,
-        y0: &[f64],
-        t_bound: f64,
-        rtol: f64,
-        atol: &[f64],
-        first_step: Option<f64>,
-    ) -> Self {
+    pub fn new(rhs: F, t0: f64, y0: &[f64], t_bound: f64, rtol: f64, atol: &[f64], first_step: Option<f64>) -> Self {
         let n = y0.len();
-        assert!(
-            atol.len() == 1 || atol.len() == n,
-            "atol: one value or one per component"
-        );
+        assert!(atol.len() == 1 || atol.len() == n, "atol: one value or one per component");
         assert!(t_bound >= t0, "forward integration only");
-        let atol = if atol.len() == n {
-            atol.to_vec()
-        } else {
-            vec![atol[0]; n]
-        };
+        let atol = if atol.len() == n { atol.to_vec() } else { vec![atol[0]; n] };
         let mut s = Dop853 {
             rhs,
             n,
@@ -437,11 +407,7 @@ impl<F: Rhs> Dop853<F> {
         }
         let d0 = (d0 / n as f64).sqrt();
         let d1 = (d1 / n as f64).sqrt();
-        let h0 = if d0 < 1e-5 || d1 < 1e-5 {
-            1e-6
-        } else {
-            0.01 * d0 / d1
-        };
+        let h0 = if d0 < 1e-5 || d1 < 1e-5 { 1e-6 } else { 0.01 * d0 / d1 };
         let h0 = h0.min(interval);
         for i in 0..n {
             self.ytmp[i] = self.y[i] + h0 * self.f[i];
@@ -454,11 +420,7 @@ impl<F: Rhs> Dop853<F> {
             d2 += ((self.scratch[i] - self.f[i]) / scale).powi(2);
         }
         let d2 = (d2 / n as f64).sqrt() / h0;
-        let h1 = if d1 <= 1e-15 && d2 <= 1e-15 {
-            (1e-6f64).max(h0 * 1e-3)
-        } else {
-            (0.01 / d1.max(d2)).powf(1.0 / 8.0)
-        };
+        let h1 = if d1 <= 1e-15 && d2 <= 1e-15 { (1e-6f64).max(h0 * 1e-3) } else { (0.01 / d1.max(d2)).powf(1.0 / 8.0) };
         (100.0 * h0).min(h1).min(interval).min(self.max_step)
     }
 
@@ -513,18 +475,10 @@ impl<F: Rhs> Dop853<F> {
                 e5 += (a5 / scale).powi(2);
                 e3 += (a3 / scale).powi(2);
             }
-            let error_norm = if e5 == 0.0 && e3 == 0.0 {
-                0.0
-            } else {
-                h * e5 / ((e5 + 0.01 * e3) * n as f64).sqrt()
-            };
+            let error_norm = if e5 == 0.0 && e3 == 0.0 { 0.0 } else { h * e5 / ((e5 + 0.01 * e3) * n as f64).sqrt() };
 
             if error_norm < 1.0 {
-                let mut factor = if error_norm == 0.0 {
-                    MAX_FACTOR
-                } else {
-                    MAX_FACTOR.min(SAFETY * error_norm.powf(ERROR_EXPONENT))
-                };
+                let mut factor = if error_norm == 0.0 { MAX_FACTOR } else { MAX_FACTOR.min(SAFETY * error_norm.powf(ERROR_EXPONENT)) };
                 if rejected {
                     factor = factor.min(1.0);
                 }
@@ -536,8 +490,7 @@ impl<F: Rhs> Dop853<F> {
                 self.y.copy_from_slice(&self.ytmp);
                 self.t = t_new;
                 self.h_abs = h_abs;
-                self.f
-                    .copy_from_slice(&self.k[N_STAGES * n..(N_STAGES + 1) * n]);
+                self.f.copy_from_slice(&self.k[N_STAGES * n..(N_STAGES + 1) * n]);
                 self.dense_ready = false;
                 self.n_accepted += 1;
                 return Ok((t, t_new));
@@ -558,8 +511,7 @@ impl<F: Rhs> Dop853<F> {
             let s = N_STAGES + 1 + r;
             combine(&self.k, n, row, h, &self.y_old, &mut self.ytmp);
             let (_, ks) = self.k.split_at_mut(s * n);
-            self.rhs
-                .eval(self.t_old + C[s] * h, &self.ytmp, &mut ks[..n]);
+            self.rhs.eval(self.t_old + C[s] * h, &self.ytmp, &mut ks[..n]);
         }
         self.n_fev += 3;
         let (f0, rest) = self.dense_f.split_at_mut(n);
@@ -662,9 +614,7 @@ pub fn self_check() -> (f64, f64, usize) {
             let tm = a + frac * (b - a);
             s.dense(tm, &mut out);
             let e = exact(tm);
-            dense_err = dense_err
-                .max((out[0] - e[0]).abs())
-                .max((out[1] - e[1]).abs() / w);
+            dense_err = dense_err.max((out[0] - e[0]).abs()).max((out[1] - e[1]).abs() / w);
         }
     }
     let e = exact(t_end);
@@ -686,9 +636,7 @@ pub fn self_check() -> (f64, f64, usize) {
         let (a, b) = s2.step().expect("step");
         let tm = 0.5 * (a + b);
         s2.dense(tm, &mut out);
-        forced_err = forced_err
-            .max((out[0] - forced(tm)).abs())
-            .max((s2.y()[0] - forced(b)).abs());
+        forced_err = forced_err.max((out[0] - forced(tm)).abs()).max((s2.y()[0] - forced(b)).abs());
     }
     (end_err.max(forced_err), dense_err.max(forced_err), steps)
 }
