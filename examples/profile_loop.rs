@@ -1,30 +1,48 @@
-// Profiling harness (not part of the report): runs S2 or S3 at N modes in a loop.
+//! A loop of runs to profile: S2 (the seed's Figure 10 regime, 60 forcing
+//! periods) or S3 (the Figure 4 scene, 20 time units) at N modes, `reps`
+//! times, printing the event-search points of all runs. Not a benchmark
+//! (criterion and `examples/rigid_peer.rs` time things); it gives `perf`
+//! and `valgrind --tool=callgrind` a steady workload:
+//!
+//! `cargo run --release --example profile_loop -- S3 4 300`
+//! `valgrind --tool=callgrind target/release/examples/profile_loop S3 4 20`
+//! (instructions per run: the difference between 20 and 0 runs, over 20).
+
 use std::f64::consts::PI;
+
 use beamstop::interface::ParamKey;
 use beamstop::scene::StructureSpec;
 use beamstop::{Model, Scene, Simulation};
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let which = args[1].clone();
-    let n: usize = args[2].parse().unwrap();
-    let reps: usize = args[3].parse().unwrap();
-    let mut scene = Scene::from_json(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap()).unwrap();
-    if let StructureSpec::Beam { modes, .. } = &mut scene.structure { *modes = n; }
-    let t_end = if which == "S2" {
-        ParamKey::LoadAmplitude(0).set(&mut scene, 72.0);
-        ParamKey::LoadOmega(0).set(&mut scene, 0.7 * PI * PI);
-        ParamKey::StopGap(0).set(&mut scene, 1.2);
-        ParamKey::Law(0, 1).set(&mut scene, 1e-3);
-        60.0 * 2.0 * PI / (0.7 * PI * PI)
-    } else { 20.0 };
-    scene.solver.max_probes_per_step = Some(u64::MAX / 2);
-    let model = Model::build(&scene).unwrap();
-    let mut total = 0;
-    for _ in 0..reps {
-        let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
-        sim.set_event_recording(false);
-        sim.advance_to(t_end).unwrap();
-        total += sim.stats().probes;
+    let which = args.get(1).map_or("S3", String::as_str);
+    let modes: usize = args.get(2).map_or(4, |a| a.parse().expect("N, a number of modes"));
+    let reps: usize = args.get(3).map_or(100, |a| a.parse().expect("reps, a number of runs"));
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).expect("the pinned-beam scene");
+    let mut scene = Scene::from_json(&text).expect("a valid scene");
+    if let StructureSpec::Beam { modes: m, .. } = &mut scene.structure {
+        *m = modes;
     }
-    println!("{total}");
+    let t_end = match which {
+        "S2" => {
+            ParamKey::LoadAmplitude(0).set(&mut scene, 72.0);
+            ParamKey::LoadOmega(0).set(&mut scene, 0.7 * PI * PI);
+            ParamKey::StopGap(0).set(&mut scene, 1.2);
+            ParamKey::Law(0, 1).set(&mut scene, 1e-3);
+            60.0 * 2.0 * PI / (0.7 * PI * PI)
+        }
+        "S3" => 20.0,
+        other => panic!("scene {other}: S2 or S3"),
+    };
+    scene.solver.max_probes_per_step = Some(u64::MAX / 2);
+    let model = Model::build(&scene).expect("model");
+    let mut probes = 0;
+    for _ in 0..reps {
+        let mut sim = Simulation::new(model.clone(), 0.0).expect("simulation");
+        sim.set_event_recording(false);
+        sim.advance_to(t_end).expect("run");
+        probes += sim.stats().probes;
+    }
+    println!("{probes}");
 }
