@@ -687,9 +687,11 @@ impl Simulation {
     /// Closes the current segment at `t` (state `at_t`): its impulses join
     /// the stops' totals before a new segment starts.
     fn close_segment(&mut self, t: f64, at_t: &ModalState) {
-        for i in (0..self.model.stops.len()).filter(|_| self.model.impulses) {
-            let p = self.segment_impulse(i, t, at_t);
-            self.state.stops[i].impulse += p;
+        if self.model.impulses {
+            for i in 0..self.model.stops.len() {
+                let p = self.segment_impulse(i, t, at_t);
+                self.state.stops[i].impulse += p;
+            }
         }
         if let Segment::Integrated(seg) = &self.segment {
             for (k, c) in seg.phase.contacts.iter().enumerate() {
@@ -816,18 +818,19 @@ impl Simulation {
     /// The contact states that shape the phase (the key of its system). A
     /// pressed mode-transfer stop is part of the basis, not of the phase.
     fn phase_key(&self) -> Vec<Contact> {
-        let transfer = self.model.transfer.as_ref().map(|tr| tr.stop);
-        self.model
-            .stops
-            .iter()
-            .zip(&self.state.stops)
-            .enumerate()
-            .map(|(i, (m, s))| match m.law.term(s.contact) {
-                _ if transfer == Some(i) => Contact::Open,
-                PhaseTerm::None => Contact::Open,
-                _ => s.contact,
-            })
-            .collect()
+        (0..self.model.stops.len()).map(|i| self.phase_contact(i)).collect()
+    }
+
+    /// Stop `i`'s entry in the phase key: its contact state where that
+    /// shapes the phase, else open.
+    fn phase_contact(&self, i: usize) -> Contact {
+        let contact = self.state.stops[i].contact;
+        let transfer = self.model.transfer.as_ref().is_some_and(|tr| tr.stop == i);
+        if transfer || self.model.stops[i].law.term(contact) == PhaseTerm::None {
+            Contact::Open
+        } else {
+            contact
+        }
     }
 
     /// The coupled system of a phase: `K = diag(omega^2) + sum k w w^T`,
@@ -1039,15 +1042,9 @@ impl Simulation {
     }
 
     /// Whether every stop leaves the current phase's dynamics alone (the
-    /// phase key is all open): the modes fly free.
+    /// phase key is all open, formed without allocating): the modes fly free.
     fn phase_is_free(&self) -> bool {
-        let transfer = self.model.transfer.as_ref().map(|tr| tr.stop);
-        self.model
-            .stops
-            .iter()
-            .zip(&self.state.stops)
-            .enumerate()
-            .all(|(i, (m, s))| transfer == Some(i) || s.contact == Contact::Open || m.law.term(s.contact) == PhaseTerm::None)
+        (0..self.model.stops.len()).all(|i| self.phase_contact(i) == Contact::Open)
     }
 
     /// A free segment from the anchor. A free segment before it is
@@ -1499,8 +1496,10 @@ impl Simulation {
                 &[i] => apply_impact(&mut st.qd, &[row(i)], impulses),
                 many => apply_impact(&mut st.qd, &many.iter().map(|&i| row(i)).collect::<Vec<_>>(), impulses),
             }
-            for (&i, p) in involved.iter().zip(impulses.iter()).filter(|_| self.model.impulses) {
-                self.state.stops[i].impulse += -self.model.stops[i].geometry.side * p;
+            if self.model.impulses {
+                for (&i, p) in involved.iter().zip(impulses.iter()) {
+                    self.state.stops[i].impulse += -self.model.stops[i].geometry.side * p;
+                }
             }
         }
         for &(i, speed) in impacts.iter() {

@@ -295,18 +295,11 @@ mod tests {
         ];
         for c in cases {
             let p = |s: f64| c.iter().rev().fold(0.0, |acc, &ck| acc * s + ck);
-            let (mut lo, mut hi) = (0.0, 1.0);
+            let mut hi = 1.0;
             while p(hi) > 0.0 {
                 hi *= 2.0;
             }
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if p(mid) > 0.0 {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
+            let lo = first_zero(p, hi);
             let s = concave_root(c);
             assert!(s <= lo && p(s) > 0.0, "{c:?}: {s} vs root {lo}");
             assert!(s >= 0.95 * lo, "{c:?}: {s} far below the root {lo}");

@@ -84,43 +84,38 @@ impl ModalForcing {
         }
     }
 
-    /// As [`Self::derivatives`], given `e^{i Omega t}` of every harmonic.
+    /// As [`Self::derivatives`] (at most 4 orders), given `e^{i Omega t}` of
+    /// every harmonic; mode by mode ([`Self::mode_derivatives_rotated`]).
     pub fn derivatives_rotated(&self, rotations: &[C64], out: &mut [DVector<f64>]) {
-        let constant = self.constant.as_slice();
-        let mut harmonics = self.harmonics.iter().zip(rotations);
-        // The first harmonic (or none) sets the values, the others add on.
-        let first = harmonics.next();
-        let mut factor = first.map_or(C64::new(0.0, 0.0), |(_, &r)| r);
-        for (m, o) in out.iter_mut().enumerate() {
-            let o = o.as_mut_slice();
-            let n = o.len().min(constant.len());
-            let o = &mut o[..n];
-            match first {
-                Some((h, _)) => {
-                    let amplitude = &h.amplitude.as_slice()[..n];
-                    for ((x, b), c) in o.iter_mut().zip(amplitude).zip(&constant[..n]) {
-                        let base = if m == 0 { *c } else { 0.0 };
-                        *x = base + (b.re * factor.re - b.im * factor.im);
-                    }
-                    // Times i Omega.
-                    factor = C64::new(-h.omega * factor.im, h.omega * factor.re);
-                }
-                None if m == 0 => o.copy_from_slice(&constant[..n]),
-                None => o.fill(0.0),
+        assert!(out.len() <= 4, "{} load derivatives asked for, at most 4", out.len());
+        let n = out.iter().map(|o| o.len()).fold(self.constant.len(), usize::min);
+        for j in 0..n {
+            let values = self.mode_derivatives_rotated::<4>(j, rotations);
+            for (o, v) in out.iter_mut().zip(&values) {
+                o[j] = *v;
             }
         }
-        for (h, &rotation) in harmonics {
+    }
+
+    /// `d^m f_j / dt^m` of mode `j` for m = 0..M: the constant, then
+    /// each harmonic's `Re(b (i Omega)^m e^{i Omega t})`, `(i Omega)^m` by
+    /// repeated products.
+    #[inline]
+    pub fn mode_derivatives_rotated<const M: usize>(&self, j: usize, rotations: &[C64]) -> [f64; M] {
+        let mut out = [0.0; M];
+        if M > 0 {
+            out[0] = self.constant[j];
+        }
+        for (h, &rotation) in self.harmonics.iter().zip(rotations) {
+            let b = h.amplitude[j];
             let mut factor = rotation;
-            let amplitude = h.amplitude.as_slice();
             for o in out.iter_mut() {
-                let o = o.as_mut_slice();
-                let n = o.len().min(amplitude.len());
-                for (x, b) in o[..n].iter_mut().zip(&amplitude[..n]) {
-                    *x += b.re * factor.re - b.im * factor.im;
-                }
+                *o += b.re * factor.re - b.im * factor.im;
+                // Times i Omega.
                 factor = C64::new(-h.omega * factor.im, h.omega * factor.re);
             }
         }
+        out
     }
 
     /// Bounds `B[m][j] >= |d^m f_j / dt^m|` over all time, m = 0..=4.

@@ -319,21 +319,12 @@ impl FreeSegment {
         let (sq, sqd) = (&sample.steady_q.as_slice()[..n], &sample.steady_qd.as_slice()[..n]);
         let (mut m, mut level) = ([0.0; 3], 0.0);
         for (j, (load, osc)) in dynamics.mode_loads[..n].iter().zip(&dynamics.oscillators).enumerate() {
-            let w = osc.omega;
-            let (rq, rv) = (q[j] - sq[j], qd[j] - sqd[j]);
-            let resonant = &load.resonant_bounds;
-            let amp = (rv * rv + w * w * rq * rq).sqrt() + resonant[0] * tau;
-            let mut r = [0.0; 5];
-            r[0] = amp / w;
-            r[1] = amp;
-            for k in 2..5 {
-                r[k] = resonant[k - 2] + 2.0 * osc.a * r[k - 1] + w * w * r[k - 2];
-            }
+            let b = mode_bounds(load, osc, q[j] - sq[j], qd[j] - sqd[j], tau);
             let wa = a[j].abs();
             for k in 0..3 {
-                m[k] += wa * (r[k + 2] + load.steady_bounds[k + 2]);
+                m[k] += wa * b[k + 2];
             }
-            level += wa * (r[0] + load.steady_bounds[0]);
+            level += wa * b[0];
         }
         DerivativeBounds { tau, m, floor: [NOISE * level, 0.0, 0.0, 0.0] }
     }
@@ -353,21 +344,31 @@ impl FreeSegment {
         let [b0, b1, b2, b3, b4, b5] = &mut out.b;
         let b = [&mut b0.as_mut_slice()[..n], &mut b1.as_mut_slice()[..n], &mut b2.as_mut_slice()[..n], &mut b3.as_mut_slice()[..n], &mut b4.as_mut_slice()[..n], &mut b5.as_mut_slice()[..n]];
         for (j, (load, osc)) in dynamics.mode_loads[..n].iter().zip(&dynamics.oscillators).enumerate() {
-            let w = osc.omega;
-            let (rq, rv) = (q[j] - sq[j], qd[j] - sqd[j]);
-            let resonant = &load.resonant_bounds;
-            let amp = (rv * rv + w * w * rq * rq).sqrt() + resonant[0] * tau;
-            let mut r = [0.0; 6];
-            r[0] = amp / w;
-            r[1] = amp;
-            for m in 2..6 {
-                r[m] = resonant[m - 2] + 2.0 * osc.a * r[m - 1] + w * w * r[m - 2];
-            }
+            let bj = mode_bounds(load, osc, q[j] - sq[j], qd[j] - sqd[j], tau);
             for m in 0..6 {
-                b[m][j] = r[m] + load.steady_bounds[m];
+                b[m][j] = bj[m];
             }
         }
     }
+}
+
+/// Bounds on `|q_j^(m)|`, m = 0..=5, over `[t, t + tau]` for one mode
+/// (see [`FreeSegment::fill_bounds`]): `(rq, rv)` is its state less the
+/// steady response to the non-resonant loads.
+fn mode_bounds(load: &ModeLoad, osc: &Oscillator, rq: f64, rv: f64, tau: f64) -> [f64; 6] {
+    let w = osc.omega;
+    let resonant = &load.resonant_bounds;
+    let amp = (rv * rv + w * w * rq * rq).sqrt() + resonant[0] * tau;
+    let mut r = [0.0; 6];
+    r[0] = amp / w;
+    r[1] = amp;
+    for m in 2..6 {
+        r[m] = resonant[m - 2] + 2.0 * osc.a * r[m - 1] + w * w * r[m - 2];
+    }
+    for m in 0..6 {
+        r[m] += load.steady_bounds[m];
+    }
+    r
 }
 
 /// Time derivatives of every modal coordinate at one instant, and the load's.
@@ -413,26 +414,9 @@ impl ModalJet {
         let [s0, s1, s2, s3, s4] = &mut self.scale;
         let (s0, s1, s2, s3, s4) = (&mut s0.as_mut_slice()[..n], &mut s1.as_mut_slice()[..n], &mut s2.as_mut_slice()[..n], &mut s3.as_mut_slice()[..n], &mut s4.as_mut_slice()[..n]);
         for j in 0..n {
-            let osc = &oscillators[j];
-            let (w2, two_a) = (osc.omega * osc.omega, 2.0 * osc.a);
-            let (x, v) = (x[j], v[j]);
-            let a2 = f0[j] - two_a * v - w2 * x;
-            let a3 = f1[j] - two_a * a2 - w2 * v;
-            let a4 = f2[j] - two_a * a3 - w2 * a2;
-            let (c0, c1) = (x.abs(), v.abs());
-            let c2 = f0[j].abs() + two_a * c1 + w2 * c0;
-            let c3 = f1[j].abs() + two_a * c2 + w2 * c1;
-            let c4 = f2[j].abs() + two_a * c3 + w2 * c2;
-            q0[j] = x;
-            q1[j] = v;
-            q2[j] = a2;
-            q3[j] = a3;
-            q4[j] = a4;
-            s0[j] = c0;
-            s1[j] = c1;
-            s2[j] = c2;
-            s3[j] = c3;
-            s4[j] = c4;
+            let (d, c) = mode_jet(&oscillators[j], x[j], v[j], [f0[j], f1[j], f2[j]]);
+            (q0[j], q1[j], q2[j], q3[j], q4[j]) = (d[0], d[1], d[2], d[3], d[4]);
+            (s0[j], s1[j], s2[j], s3[j], s4[j]) = (c[0], c[1], c[2], c[3], c[4]);
         }
     }
 
@@ -444,43 +428,17 @@ impl ModalJet {
         debug_assert!(h.qd.is_none() && h.f.is_none());
         let n = dynamics.oscillators.len().min(h.q.len());
         let (a, x, v) = (&h.q.as_slice()[..n], &state.q.as_slice()[..n], &state.qd.as_slice()[..n]);
-        let constant = &dynamics.forcing.constant.as_slice()[..n];
-        let harmonics = &dynamics.forcing.harmonics;
         let (mut sum, mut size) = ([0.0; 4], [0.0; 4]);
         for j in 0..n {
-            // f, f' at this mode, as `ModalForcing::derivatives_rotated` sums them.
-            let (mut f0, mut f1) = (constant[j], 0.0);
-            for (k, (hk, &rotation)) in harmonics.iter().zip(rotations).enumerate() {
-                let b = hk.amplitude[j];
-                let d0 = b.re * rotation.re - b.im * rotation.im;
-                let r1 = C64::new(-hk.omega * rotation.im, hk.omega * rotation.re);
-                let d1 = b.re * r1.re - b.im * r1.im;
-                if k == 0 {
-                    (f0, f1) = (f0 + d0, 0.0 + d1);
-                } else {
-                    (f0, f1) = (f0 + d0, f1 + d1);
-                }
-            }
-            // `ModalJet::fill_from_load`.
-            let osc = &dynamics.oscillators[j];
-            let (w2, two_a) = (osc.omega * osc.omega, 2.0 * osc.a);
-            let (xj, vj) = (x[j], v[j]);
-            let a2 = f0 - two_a * vj - w2 * xj;
-            let a3 = f1 - two_a * a2 - w2 * vj;
-            let (c0, c1) = (xj.abs(), vj.abs());
-            let c2 = f0.abs() + two_a * c1 + w2 * c0;
-            let c3 = f1.abs() + two_a * c2 + w2 * c1;
+            let f = dynamics.forcing.mode_derivatives_rotated::<2>(j, rotations);
+            let (d, c) = mode_jet(&dynamics.oscillators[j], x[j], v[j], f);
             // `weighted_sums`.
             let w = a[j];
-            sum[0] += w * xj;
-            sum[1] += w * vj;
-            sum[2] += w * a2;
-            sum[3] += w * a3;
             let wa = w.abs();
-            size[0] += wa * c0;
-            size[1] += wa * c1;
-            size[2] += wa * c2;
-            size[3] += wa * c3;
+            for m in 0..4 {
+                sum[m] += w * d[m];
+                size[m] += wa * c[m];
+            }
         }
         let mut jet = Jet { d: sum, ..Jet::default() };
         jet.d[0] += h.offset;
@@ -518,6 +476,20 @@ impl ModalJet {
         }
         jet.with_time_uncertainty(t)
     }
+}
+
+/// One mode's `q, q', q'', ...` up to order `K + 1` (at most 4) from its state
+/// and the load's derivatives `f, f', ..` (`q'' = f - 2 a q' - omega^2 q`
+/// differentiated), and the magnitudes summed into each (higher orders 0).
+#[inline]
+fn mode_jet<const K: usize>(osc: &Oscillator, x: f64, v: f64, f: [f64; K]) -> ([f64; 5], [f64; 5]) {
+    let (w2, two_a) = (osc.omega * osc.omega, 2.0 * osc.a);
+    let (mut d, mut c) = ([x, v, 0.0, 0.0, 0.0], [x.abs(), v.abs(), 0.0, 0.0, 0.0]);
+    for (m, fm) in f.iter().enumerate().take(3) {
+        d[m + 2] = fm - two_a * d[m + 1] - w2 * d[m];
+        c[m + 2] = fm.abs() + two_a * c[m + 1] + w2 * c[m];
+    }
+    (d, c)
 }
 
 /// `sum_j a_j x[m]_j` and `sum_j |a_j scale[m]_j|` for m = 0..4, in one pass.
