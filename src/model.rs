@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Geometry, Law};
+use crate::solve::lti::SystemCache;
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
 use crate::structure::{tip_spring, Beam, Chain, Point, Structure, Support, TipSpringCantilever};
 
@@ -56,6 +57,8 @@ pub struct Model {
     /// Mode transfer (seed 001's MTM, RMTM) for the one tip stop that asks
     /// for it: the basis its contact phases use.
     pub transfer: Option<TransferBasis>,
+    /// The contact phases' decompositions, shared by the model's clones.
+    pub phase_systems: SystemCache,
 }
 
 /// The modes of the cantilever with the tip spring (seed 001's contact
@@ -274,6 +277,7 @@ impl Model {
             energy_balance: scene.outputs.energy_balance,
             impulses: scene.outputs.impulse,
             transfer,
+            phase_systems: SystemCache::default(),
         })
     }
 

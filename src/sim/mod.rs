@@ -25,7 +25,7 @@ use crate::model::Model;
 use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
 use crate::solve::functional::NOISE;
-use crate::solve::lti::{CoupledSample, CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
+use crate::solve::lti::{CoordinateBounds, CoupledSample, CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
 use crate::solve::{FreeDynamics, FreeSegment, Functional, Jet, ModalForcing, ModalState};
 
 /// What happened at an event.
@@ -857,7 +857,7 @@ impl Simulation {
             }
         }
         let w = if cols.is_empty() { nalgebra::DMatrix::zeros(n, 0) } else { nalgebra::DMatrix::from_columns(&cols) };
-        let sys = Arc::new(CoupledSystem::new(k, d, w)?);
+        let sys = self.model.phase_systems.get_or_build(k, d, w)?;
         self.coupled_cache.insert(key.to_vec(), sys.clone());
         Ok(sys)
     }
@@ -1179,7 +1179,14 @@ impl Simulation {
                             segment.coordinate_bounds_into(system, coupled, self.tau_max, coords);
                             coords_ready = true;
                         }
-                        certified_step(&jet, &segment.bounds(p, coords, self.tau_max), departing)
+                        let bounds = segment.bounds(p, coords, self.tau_max);
+                        match certified_step(&jet, &bounds, departing) {
+                            // As in free flight: no split while converging on a zero.
+                            Certified::Clear(s) if !departing && !(jet.d[1] < 0.0 && s * -jet.d[1] >= 0.9 * jet.d[0]) => {
+                                Certified::Clear(s.max(segment.split_step(system, p, coupled, coords, &jet, &bounds)))
+                            }
+                            other => other,
+                        }
                     });
                 }
             }
@@ -1649,7 +1656,7 @@ struct ProbeBuffers {
     bounds: ModalBounds,
     increment: Increment,
     coupled: CoupledSample,
-    coords: Vec<[f64; 7]>,
+    coords: Vec<CoordinateBounds>,
     /// The channels' departing flags before and after a probe.
     departing: Vec<bool>,
     keep: Vec<bool>,

@@ -112,13 +112,23 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     // below. Near a transversal zero the cubic one converges cubically.
     if h > 0.0 && h1 < 0.0 && m3 > 0.0 {
         let (c1, c2) = (h1 - noise(1), (h2 - noise(2)).min(0.0));
-        let cubic = concave_root(&[h, c1, 0.5 * c2, -m3 / 6.0]);
+        let cubic = concave_root(&[h, c1, 0.5 * c2, -m3 / 6.0], jet.noise[0]);
         best = best.max(cubic);
         if m4 > 0.0 && m4 * cubic < 4.0 * m3 {
             // The quartic one converges with order four; it is tried where
             // its remainder is the smaller one at the cubic one's step.
-            let c3 = (h3 - noise(3)).min(0.0);
-            best = best.max(concave_root(&[h, c1, 0.5 * c2, c3 / 6.0, -m4 / 24.0]));
+            let c3 = h3 - noise(3);
+            let quartic = concave_root(&[h, c1, 0.5 * c2, c3.min(0.0) / 6.0, -m4 / 24.0], jet.noise[0]);
+            best = best.max(quartic);
+            let cube = quartic * quartic * quartic;
+            if c3 > 0.0 && c3 * cube > 6.0 * jet.noise[0] && m4 * cube * quartic < 24.0 * jet.noise[0] {
+                // Dropping a positive h''' leaves `h''' s^3 / 6` on the
+                // table, which near the zero is the whole residual: kept,
+                // the bound is no longer concave everywhere but still
+                // decreasing near the zero. Only where that term is above
+                // the noise and the remainder below it.
+                best = best.max(extend_decreasing(&[h, c1, 0.5 * c2, c3 / 6.0, -m4 / 24.0], quartic));
+            }
         }
     }
     // Moving away but bending back (h' > 0 > h''): h >= s (h1 + h2 s / 2 +
@@ -127,7 +137,7 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     // rebound of a chatter sequence).
     if h >= 0.0 && h1 - noise(1) > 0.0 && h2 < 0.0 && m4 > 0.0 && m4 * best < 4.0 * m3 {
         let (c2, c3) = ((h2 - noise(2)).min(0.0), (h3 - noise(3)).min(0.0));
-        best = best.max(concave_root(&[h1 - noise(1), 0.5 * c2, c3 / 6.0, -m4 / 24.0]));
+        best = best.max(concave_root(&[h1 - noise(1), 0.5 * c2, c3 / 6.0, -m4 / 24.0], 0.0));
     }
     if departing && h == 0.0 && h1 == 0.0 && h2.abs() <= jet.noise[2] && h3.abs() <= jet.noise[3] {
         // Resting on the boundary: every visible derivative is rounding (a
@@ -146,6 +156,17 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     Certified::Clear(best.min(tau_max))
 }
 
+/// `p(s) = sum c_k s^k` and `p'(s)` by Horner's rule.
+#[inline(always)]
+fn polynomial_and_slope(c: &[f64], s: f64) -> (f64, f64) {
+    let (mut p, mut dp) = (0.0, 0.0);
+    for &ck in c.iter().rev() {
+        dp = dp * s + p;
+        p = p * s + ck;
+    }
+    (p, dp)
+}
+
 /// A point `s > 0` below the root of `p(s) = sum c_k s^k` with `c_0 > 0`
 /// and every other coefficient `<= 0` (the last `< 0`): `p` is decreasing
 /// and concave on `s >= 0`, so a chord between a point with `p >= 0` and
@@ -153,15 +174,8 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
 /// a point past the root stays past it. Three rounds from the nearest root
 /// of `c_0 + c_j s^j` leave the returned point within a few percent of the
 /// root, always on its left (`p > 0`).
-fn concave_root(c: &[f64]) -> f64 {
-    let eval = |s: f64| {
-        let (mut p, mut dp) = (0.0, 0.0);
-        for &ck in c.iter().rev() {
-            dp = dp * s + p;
-            p = p * s + ck;
-        }
-        (p, dp)
-    };
+fn concave_root(c: &[f64], resolution: f64) -> f64 {
+    let eval = |s: f64| polynomial_and_slope(c, s);
     let k = c.len() - 1;
     // Past the root: the root of `c_0 + c_j s^j` for any `j` with
     // `c_j < 0`, as p <= c_0 + c_j s^j; the smallest of those tried. The
@@ -207,11 +221,98 @@ fn concave_root(c: &[f64]) -> f64 {
             (pb, db) = eval(b);
         }
     }
+    // The chord lags behind Newton from the right, which converges
+    // quadratically: a point 1e-12 before the Newton point, if p is still
+    // positive there, lands the step within rounding of the root, and the
+    // next point is the event. Worth an evaluation only where the step can
+    // end within `resolution` of the zero: the chord's lag leaves more than
+    // that, and the remainder term (the bound's own distance from the
+    // function) less.
+    let converging = (b - a) * -c[1] > resolution && {
+        let mut remainder = -c[k];
+        for _ in 0..k {
+            remainder *= a;
+        }
+        remainder < resolution
+    };
+    if converging {
+        // b itself when it is on the root within rounding; otherwise the
+        // next Newton point, once the step to it is below 1e-6 of b (the
+        // one after would be below 1e-12).
+        let newton = if pb >= 0.0 {
+            Some(b)
+        } else if db < 0.0 && -pb < 1e-6 * b * -db {
+            Some(b - pb / db)
+        } else {
+            None
+        };
+        if let Some(x) = newton {
+            let near = x * (1.0 - 1e-12);
+            if near > a {
+                let (pn, _) = eval(near);
+                if pn > 0.0 {
+                    (a, pa) = (near, pn);
+                }
+            }
+        }
+    }
     if pa > 0.0 {
         a
     } else {
         0.0
     }
+}
+
+/// A point `x >= start` with `p > 0` on `[0, x)`, for `p(s) = sum c_k s^k`
+/// whose coefficients are `<= 0` except `c_0 > 0` and `c_3 > 0`, given
+/// such a point `start` (from the concave bound without `c_3`). While
+/// `c_1 + 3 c_3 x^2 < 0`, `p' <= c_1 + 3 c_3 s^2 < 0` on `[0, x]` (the other
+/// coefficients are not positive), so `p(x) > 0` certifies all of `[0, x)`.
+fn extend_decreasing(c: &[f64; 5], start: f64) -> f64 {
+    let eval = |s: f64| polynomial_and_slope(c, s);
+    // `c1 + 3 c3 x^2` grows with x: once true at b, true left of it.
+    let decreasing = |x: f64| c[1] + 3.0 * c[3] * x * x < 0.0;
+    let (mut a, (mut pa, da)) = (start, eval(start));
+    if !(pa > 0.0 && da < 0.0) {
+        return start;
+    }
+    // Newton from the certified point; past the zero, a chord and Newton
+    // from the right narrow the bracket, as in `concave_root`. Only points
+    // with `p > 0` where `p` is decreasing are taken.
+    let mut b = a - pa / da;
+    let mut bracketed = false;
+    for _ in 0..3 {
+        if !(b > a && decreasing(b)) {
+            break;
+        }
+        let (pb, db) = eval(b);
+        if pb > 0.0 {
+            (a, pa) = (b, pb);
+            if !(db < 0.0) {
+                break;
+            }
+            b = a - pa / db;
+            continue;
+        }
+        bracketed = true;
+        let chord = a + pa * (b - a) / (pa - pb);
+        let (pc, _) = eval(chord);
+        if chord > a && chord < b && pc > 0.0 {
+            (a, pa) = (chord, pc);
+        }
+        let newton = b - pb / db;
+        if !(db < 0.0 && newton > a && newton < b) {
+            break;
+        }
+        b = newton;
+    }
+    if bracketed && b > a && decreasing(b) {
+        let near = b * (1.0 - 1e-12);
+        if near > a && eval(near).0 > 0.0 {
+            a = near;
+        }
+    }
+    a
 }
 
 /// Which way a contact goes when the gap and the normal velocity both vanish:
@@ -300,7 +401,7 @@ mod tests {
                 hi *= 2.0;
             }
             let lo = first_zero(p, hi);
-            let s = concave_root(c);
+            let s = concave_root(c, 0.0);
             assert!(s <= lo && p(s) > 0.0, "{c:?}: {s} vs root {lo}");
             assert!(s >= 0.95 * lo, "{c:?}: {s} far below the root {lo}");
         }
@@ -369,6 +470,58 @@ mod tests {
         match certified_step(&noisy, &b, true) {
             Certified::Clear(s) => assert!((s - 1e-4).abs() < 1e-12, "{s}"),
             other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_last_step_onto_a_zero_lands_within_rounding_of_it() {
+        // The end of a chatter flight (S3 at t = 6.48626): h = 4.9e-10
+        // falling at 3.1e-3, noise 3.9e-18, the worst case h'''' = -M4 the
+        // function itself (so the bound's root is the zero). The step must
+        // end where h is within its noise (the next point is the event)
+        // and never pass the zero. Before: with h''' < 0 the chord stopped
+        // 2.4e-6 short in relative terms (1.2e-15 of h left); with a large
+        // h''' > 0, dropping the cubic term left h''' s^3 / 6 = 1.3e-16.
+        let (h, h1, h2, m3, m4) = (4.910960381183141e-10, -0.0031111542684988044, -60.90508587784873, 9919.56, 1.5049e6);
+        let noise = [3.9e-18, 3.6e-13, 1.7e-11, 4.5e-11];
+        for h3 in [-2810.4, 2810.4, 2.0e5] {
+            let p = |s: f64| h + s * (h1 + s * (0.5 * h2 + s * (h3 / 6.0 - s * m4 / 24.0)));
+            let b = DerivativeBounds { tau: 1.0, m: [100.0, m3, m4], floor: [0.0; 4] };
+            let jet = Jet { d: [h, h1, h2, h3], noise, slack: 1e-16 };
+            let Certified::Clear(s) = certified_step(&jet, &b, false) else { panic!() };
+            let zero = first_zero(p, 1e-6);
+            assert!(s <= zero && p(s) >= 0.0, "h''' = {h3}: {s} passes the zero {zero}");
+            assert!(p(s) <= noise[0], "h''' = {h3}: {:e} left at the end of the step", p(s));
+        }
+    }
+
+    #[test]
+    fn extending_a_root_with_a_positive_cubic_term_never_passes_it() {
+        // p = c0 + c1 s + c2 s^2 + c3 s^3 + c4 s^4 with c3 > 0: every
+        // extension of the concave root without c3 stays left of p's first
+        // zero (bisection on a fine grid) and reaches it closely when p is
+        // decreasing there.
+        let cases: [[f64; 5]; 4] = [
+            [1e-3, -1.0, -5.0, 40.0, -1e3],
+            [0.5, -1.0, -0.1, 0.3, -0.01],
+            [1.0, -0.01, 0.0, 1.0, -1e6],
+            [2e-10, -3e-3, -30.0, 470.0, -6.3e4],
+        ];
+        for c in cases {
+            let p = |s: f64| c.iter().rev().fold(0.0, |acc, &ck| acc * s + ck);
+            let mut hi = 1e-12;
+            while p(hi) > 0.0 {
+                hi *= 1.5;
+            }
+            let zero = first_zero(p, hi);
+            let concave = concave_root(&[c[0], c[1], c[2], 0.0, c[4]], 0.0);
+            let s = extend_decreasing(&c, concave);
+            assert!(s >= concave && s <= zero && p(s) > 0.0, "{c:?}: {s} vs zero {zero}");
+            let grid_ok = (1..2000).all(|k| p(s * k as f64 / 2000.0) > 0.0);
+            assert!(grid_ok, "{c:?}: p dips below zero before {s}");
+            if c[1] + 3.0 * c[3] * zero * zero < 0.0 {
+                assert!(s > (1.0 - 1e-9) * zero, "{c:?}: {s} short of the zero {zero}");
+            }
         }
     }
 }
