@@ -22,7 +22,7 @@ use crate::contact::restitution::{apply_impact, energy_loss, ImpactRow};
 use crate::contact::{Contact, Geometry, Law, PhaseTerm, Switch, Watch};
 use crate::scene::ContactMethod;
 use crate::model::Model;
-use crate::solve::events::{certified_step, tendency_from, Certified, Tendency};
+use crate::solve::events::{certified_step, converging_on_zero, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
 use crate::solve::functional::NOISE;
 use crate::solve::lti::{CoordinateBounds, CoupledSample, CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
@@ -1145,10 +1145,7 @@ impl Simulation {
                         };
                         let plain = certified_step(&jet, &bounds, departing);
                         match plain {
-                            // Within 10 % of where the slope alone meets zero, the
-                            // search is converging on a zero: the split (which
-                            // sharpens the bounds, not the slope) adds nothing.
-                            Certified::Clear(s) if !departing && !(jet.d[1] < 0.0 && s * -jet.d[1] >= 0.9 * jet.d[0]) => {
+                            Certified::Clear(s) if !departing && !converging_on_zero(&jet, s) => {
                                 if !modal_ready {
                                     jet_buf.fill_free_rotated(&self.dynamics, &increment.rotations, st);
                                     modal_ready = true;
@@ -1181,8 +1178,7 @@ impl Simulation {
                         }
                         let bounds = segment.bounds(p, coords, self.tau_max);
                         match certified_step(&jet, &bounds, departing) {
-                            // As in free flight: no split while converging on a zero.
-                            Certified::Clear(s) if !departing && !(jet.d[1] < 0.0 && s * -jet.d[1] >= 0.9 * jet.d[0]) => {
+                            Certified::Clear(s) if !departing && !converging_on_zero(&jet, s) => {
                                 Certified::Clear(s.max(segment.split_step(system, p, coupled, coords, &jet, &bounds)))
                             }
                             other => other,

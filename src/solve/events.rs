@@ -156,6 +156,34 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     Certified::Clear(best.min(tau_max))
 }
 
+/// Whether a clear step `s` already reaches within 10 % of where the slope
+/// alone meets zero: the search is converging on a zero, and a mode split
+/// (which sharpens the bounds, not the slope) adds nothing there.
+pub fn converging_on_zero(jet: &Jet, s: f64) -> bool {
+    jet.d[1] < 0.0 && s * -jet.d[1] >= 0.9 * jet.d[0]
+}
+
+/// The certified step of a split `h = h_L + h_H` (free flight's modes,
+/// a contact phase's coordinates): `h(t + s) >= h_L(t + s) - high_amp`
+/// with `high_amp >= max |h_H|` over the interval, `h_L(t) = h(t) -
+/// high_value`, `low` the derivatives of `h_L` at `t` and `bounds` its
+/// derivative bounds; `size` is the magnitude of the sums behind
+/// `high_value` and `high_amp`, whose rounding is allowed for. 0 when
+/// `h_L - high_amp` is not positive now.
+pub fn split_certificate(jet: &Jet, high_value: f64, high_amp: f64, size: f64, low: [f64; 3], bounds: &DerivativeBounds) -> f64 {
+    // Rounding of the sums and of the subtractions.
+    let margin = jet.noise[0] + 8.0 * f64::EPSILON * size;
+    let d0 = jet.d[0] - high_value - high_amp.max(0.0) - margin;
+    if d0 <= 0.0 {
+        return 0.0;
+    }
+    let low_jet = Jet { d: [d0, low[0], low[1], low[2]], noise: jet.noise, slack: jet.slack };
+    match certified_step(&low_jet, bounds, false) {
+        Certified::Clear(s) => s,
+        Certified::AtZero => 0.0,
+    }
+}
+
 /// `p(s) = sum c_k s^k` and `p'(s)` by Horner's rule.
 #[inline(always)]
 fn polynomial_and_slope(c: &[f64], s: f64) -> (f64, f64) {
@@ -246,14 +274,8 @@ fn concave_root(c: &[f64], resolution: f64) -> f64 {
         } else {
             None
         };
-        if let Some(x) = newton {
-            let near = x * (1.0 - 1e-12);
-            if near > a {
-                let (pn, _) = eval(near);
-                if pn > 0.0 {
-                    (a, pa) = (near, pn);
-                }
-            }
+        if let Some((near, pn)) = newton.and_then(|x| just_before(c, x, a)) {
+            (a, pa) = (near, pn);
         }
     }
     if pa > 0.0 {
@@ -261,6 +283,17 @@ fn concave_root(c: &[f64], resolution: f64) -> f64 {
     } else {
         0.0
     }
+}
+
+/// A point 1e-12 before `x` (a converged Newton point) and `p` there, if
+/// it lies right of `a` and `p` is still positive there.
+fn just_before(c: &[f64], x: f64, a: f64) -> Option<(f64, f64)> {
+    let near = x * (1.0 - 1e-12);
+    if near <= a {
+        return None;
+    }
+    let (p, _) = polynomial_and_slope(c, near);
+    (p > 0.0).then_some((near, p))
 }
 
 /// A point `x >= start` with `p > 0` on `[0, x)`, for `p(s) = sum c_k s^k`
@@ -306,9 +339,8 @@ fn extend_decreasing(c: &[f64; 5], start: f64) -> f64 {
         }
         b = newton;
     }
-    if bracketed && b > a && decreasing(b) {
-        let near = b * (1.0 - 1e-12);
-        if near > a && eval(near).0 > 0.0 {
+    if bracketed && decreasing(b) {
+        if let Some((near, _)) = just_before(c, b, a) {
             a = near;
         }
     }

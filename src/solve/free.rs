@@ -6,6 +6,7 @@
 
 use nalgebra::DVector;
 
+use super::events::split_certificate;
 use super::forcing::ModalForcing;
 use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
 use super::oscillator::{Oscillator, C64};
@@ -620,19 +621,9 @@ impl ModalBounds {
             low_m[2] += aj.abs() * b4[j];
             if next < count && splits[next] == j + 1 {
                 next += 1;
-                let high_value = value_all - low[0];
-                let high_amp = amp_all - amp_low;
-                // Rounding of the sums above and of the subtractions.
-                let margin = jet.noise[0] + 8.0 * f64::EPSILON * (size_all + amp_all);
-                let d0 = jet.d[0] - high_value - high_amp.max(0.0) - margin;
-                if d0 <= 0.0 {
-                    continue;
-                }
-                let low_jet = Jet { d: [d0, low[1], low[2], low[3]], noise: jet.noise, slack: jet.slack };
                 let bounds = DerivativeBounds { tau, m: low_m, floor: [0.0; 4] };
-                if let super::events::Certified::Clear(s) = super::events::certified_step(&low_jet, &bounds, false) {
-                    best = best.max(s);
-                }
+                let step = split_certificate(jet, value_all - low[0], amp_all - amp_low, size_all + amp_all, [low[1], low[2], low[3]], &bounds);
+                best = best.max(step);
             }
         }
         best

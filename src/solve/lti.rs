@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::forcing::ModalForcing;
 use super::free::ModalState;
-use super::events::{certified_step, Certified};
+use super::events::split_certificate;
 use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
 use super::oscillator::{exp_divdiff2, expm1_c, phi1, C64};
 
@@ -806,19 +806,12 @@ impl CoupledSegment {
             if !candidate || sys.eig_abs[sys.by_rate[count + 1]] <= sys.eig_abs[k] {
                 continue;
             }
-            // Rounding of the sums above and of the subtractions.
-            let margin = jet.noise[0] + 8.0 * f64::EPSILON * (size_all + amp_all);
-            let d0 = jet.d[0] - (all[0] - low[0]) - (amp_all - amp_low).max(0.0) - margin;
-            if d0 <= 0.0 {
-                continue;
-            }
-            let d = [d0, jet.d[1] - (all[1] - low[1]), jet.d[2] - (all[2] - low[2]), jet.d[3] - (all[3] - low[3])];
-            let low_jet = Jet { d, noise: jet.noise, slack: jet.slack };
+            // h_L keeps the offset and the load part of h.
+            let low_derivatives = [jet.d[1] - (all[1] - low[1]), jet.d[2] - (all[2] - low[2]), jet.d[3] - (all[3] - low[3])];
             let m = [low_m[0] + p.load_bounds[2], low_m[1] + p.load_bounds[3], low_m[2] + p.load_bounds[4]];
             let bounds = DerivativeBounds { tau: plain.tau, m, floor: plain.floor };
-            if let Certified::Clear(s) = certified_step(&low_jet, &bounds, false) {
-                best = best.max(s);
-            }
+            let step = split_certificate(jet, all[0] - low[0], amp_all - amp_low, size_all + amp_all, low_derivatives, &bounds);
+            best = best.max(step);
         }
         best
     }
@@ -853,6 +846,7 @@ pub struct ProjectedFunctional {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solve::events::{certified_step, Certified};
     use nalgebra::dvector;
 
     /// Independent reference: RK4 on the full constrained equations
