@@ -4,7 +4,7 @@
 //! (criterion and `examples/rigid_peer.rs` time things); it gives `perf`
 //! and `valgrind --tool=callgrind` a steady workload:
 //!
-//! `cargo run --release --example profile_loop -- S3 4 300`
+//! `cargo run --release --example profile_loop -- S3 4 300 [event_tolerance]`
 //! `valgrind --tool=callgrind target/release/examples/profile_loop S3 4 20`
 //! (instructions per run: the difference between 20 and 0 runs, over 20).
 
@@ -19,6 +19,7 @@ fn main() {
     let which = args.get(1).map_or("S3", String::as_str);
     let modes: usize = args.get(2).map_or(4, |a| a.parse().expect("N, a number of modes"));
     let reps: usize = args.get(3).map_or(100, |a| a.parse().expect("reps, a number of runs"));
+    let tolerance: f64 = args.get(4).map_or(0.0, |a| a.parse().expect("event_tolerance, a number"));
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).expect("the pinned-beam scene");
     let mut scene = Scene::from_json(&text).expect("a valid scene");
     if let StructureSpec::Beam { modes: m, .. } = &mut scene.structure {
@@ -36,6 +37,7 @@ fn main() {
         other => panic!("scene {other}: S2 or S3"),
     };
     scene.solver.max_probes_per_step = Some(u64::MAX / 2);
+    scene.solver.event_tolerance = tolerance;
     let model = Model::build(&scene).expect("model");
     let mut probes = 0;
     for _ in 0..reps {

@@ -281,8 +281,10 @@ pub struct Simulation {
     basis_changed: bool,
     /// Mode transfer with inherited damping: the contact phase's system.
     transfer_system: Option<Arc<CoupledSystem>>,
-    /// Work space of the event handling (no state: any value will do).
-    event_work: EventWork,
+    /// Work space of the event handling (no state: any value will do;
+    /// `None` until the first event). Boxed: taken out and put back at
+    /// every event, a pointer moves instead of the scratch vectors' headers.
+    event_work: Option<Box<EventWork>>,
 }
 
 /// Work counters of a run.
@@ -381,7 +383,7 @@ impl Simulation {
             scratch: None,
             basis_changed: false,
             transfer_system: None,
-            event_work: EventWork::default(),
+            event_work: None,
         };
         sim.rebuild_segment()?;
         // An integrated phase rebuilds its steps from the anchor.
@@ -1100,9 +1102,9 @@ impl Simulation {
     /// the certified step or the list of functions at zero.
     fn probe(&self, t: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Probe {
         let tol = self.model.event_tolerance;
-        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, departing, keep, .. } = buffers;
+        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, departing, keep, at_zero, .. } = buffers;
         self.departing_flags_into(departing);
-        let mut scan = Scan::new(departing, keep);
+        let mut scan = Scan::new(departing, keep, at_zero);
         match &self.segment {
             Segment::Free { segment: seg, functions } => {
                 seg.state_and_increment_at(&self.dynamics, t, st, increment);
@@ -1261,8 +1263,8 @@ impl Simulation {
                 return Err(SimError::TooMuchWork { time: l, probes: probes - 1 });
             }
             self.stats.probes += 1;
-            let at_zero = match self.probe(l, st, buffers) {
-                Probe::Events(list) => list,
+            match self.probe(l, st, buffers) {
+                Probe::Events => {}
                 Probe::Clear { step, limiting } => {
                     // Clear down to the search's resolution: step on.
                     let next = l + step;
@@ -1277,11 +1279,11 @@ impl Simulation {
                     }
                     // The zero is within one ulp of l.
                     match limiting {
-                        Some(lim) => vec![lim],
+                        Some(lim) => buffers.at_zero.push(lim),
                         None => break,
                     }
                 }
-            };
+            }
             count += 1;
             self.stats.events += 1;
             if count > self.model.max_events_per_step {
@@ -1292,7 +1294,7 @@ impl Simulation {
                 // Coupled probes sample the complex coordinates only.
                 self.state_at(l, st);
             }
-            self.handle_events(l, st, &at_zero)?;
+            self.handle_events(l, st, &buffers.at_zero)?;
             if std::mem::take(&mut self.basis_changed) {
                 *buffers = ProbeBuffers::new(&self.dynamics);
                 *st = ModalState::zeros(self.model.n_modes());
@@ -1336,7 +1338,7 @@ impl Simulation {
                 return true;
             }
             match check.probe(l, &mut st, &mut buffers) {
-                Probe::Events(_) => return false,
+                Probe::Events => return false,
                 Probe::Clear { step, .. } => {
                     if !(l + step > l) {
                         return false;
@@ -1360,10 +1362,10 @@ impl Simulation {
     /// a new segment there if the state or the phase changed. `at_zero`
     /// lists the channels at their zero with their jets.
     fn handle_events(&mut self, t: f64, st: &mut ModalState, at_zero: &[(usize, Jet)]) -> Result<(), SimError> {
-        let mut work = std::mem::take(&mut self.event_work);
+        let mut work = self.event_work.take().unwrap_or_default();
         work.clear();
         let result = self.apply_events(t, st, at_zero, &mut work);
-        self.event_work = work;
+        self.event_work = Some(work);
         result
     }
 
@@ -1656,6 +1658,8 @@ struct ProbeBuffers {
     /// The channels' departing flags before and after a probe.
     departing: Vec<bool>,
     keep: Vec<bool>,
+    /// The functions at their zero after a probe that found events.
+    at_zero: Vec<(usize, Jet)>,
 }
 
 impl ProbeBuffers {
@@ -1670,6 +1674,7 @@ impl ProbeBuffers {
             coords: Vec::new(),
             departing: Vec::new(),
             keep: Vec::new(),
+            at_zero: Vec::new(),
         }
     }
 }
@@ -1678,14 +1683,15 @@ enum Probe {
     /// No zero at this point; the probe buffers' `keep` holds the
     /// departing flags of functions still within noise of their boundary.
     Clear { step: f64, limiting: Option<(usize, Jet)> },
-    Events(Vec<(usize, Jet)>),
+    /// Functions at their zero, listed in the probe buffers' `at_zero`.
+    Events,
 }
 
 /// The event functions' verdicts at one point, gathered.
 struct Scan<'a> {
     /// Functions leaving their boundary (input).
     departing: &'a [bool],
-    at_zero: Vec<(usize, Jet)>,
+    at_zero: &'a mut Vec<(usize, Jet)>,
     step: f64,
     limiting: Option<(usize, Jet)>,
     /// Functions still departing after this point (output).
@@ -1693,10 +1699,11 @@ struct Scan<'a> {
 }
 
 impl<'a> Scan<'a> {
-    fn new(departing: &'a [bool], keep: &'a mut Vec<bool>) -> Self {
+    fn new(departing: &'a [bool], keep: &'a mut Vec<bool>, at_zero: &'a mut Vec<(usize, Jet)>) -> Self {
         keep.clear();
         keep.resize(departing.len(), false);
-        Scan { departing, at_zero: Vec::new(), step: f64::INFINITY, limiting: None, keep }
+        at_zero.clear();
+        Scan { departing, at_zero, step: f64::INFINITY, limiting: None, keep }
     }
 
     /// One function: at its zero (an event), or clear for a certified step;
@@ -1726,7 +1733,7 @@ impl<'a> Scan<'a> {
         if self.at_zero.is_empty() {
             Probe::Clear { step: self.step, limiting: self.limiting }
         } else {
-            Probe::Events(self.at_zero)
+            Probe::Events
         }
     }
 }

@@ -139,15 +139,17 @@ impl FreeSegment {
         self.start_rotations.extend(dynamics.forcing.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t0)));
         self.modes.clear();
         self.parts.clear();
+        // Plain loops over slices: the event loop resets at every impact.
+        let harmonics = &dynamics.forcing.harmonics[..];
+        let (constant, q, qd) = (dynamics.forcing.constant.as_slice(), start.q.as_slice(), start.qd.as_slice());
         for (j, (osc, load)) in dynamics.oscillators.iter().zip(&dynamics.mode_loads).enumerate() {
             let w2 = osc.omega * osc.omega;
-            let x_static = dynamics.forcing.constant[j] / w2;
-            let mut x0 = start.q[j] - x_static;
-            let mut v0 = start.qd[j];
-            let harmonics = dynamics.forcing.harmonics.iter().zip(&self.start_rotations).zip(&load.inverse_stiffness);
-            self.parts.extend(harmonics.map(|((h, rotation), inverse)| {
-                let b = h.amplitude[j] * rotation;
-                match inverse {
+            let x_static = constant[j] / w2;
+            let mut x0 = q[j] - x_static;
+            let mut v0 = qd[j];
+            for ((h, rotation), inverse) in harmonics.iter().zip(&self.start_rotations).zip(&load.inverse_stiffness) {
+                let b = h.amplitude.as_slice()[j] * rotation;
+                let part = match inverse {
                     None => HarmonicPart::FromRest(b),
                     Some(inverse) => {
                         let pb = b * inverse;
@@ -155,8 +157,9 @@ impl FreeSegment {
                         v0 += h.omega * pb.im;
                         HarmonicPart::Steady(pb)
                     }
-                }
-            }));
+                };
+                self.parts.push(part);
+            }
             self.modes.push(ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static });
         }
     }

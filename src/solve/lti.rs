@@ -460,16 +460,16 @@ impl CoupledSegment {
     ) -> Self {
         let n = sys.n_free();
         let q_c = origin.clone();
-        let zt = sys.z.transpose();
-        let y0 = &zt * (&start.q - &q_c);
-        let yd0 = &zt * &start.qd;
+        // Z^T x by `tr_mul`: no transposed copy of Z per phase.
+        let y0 = sys.z.tr_mul(&(&start.q - &q_c));
+        let yd0 = sys.z.tr_mul(&start.qd);
         let x0 = DVector::from_fn(2 * n, |i, _| C64::new(if i < n { y0[i] } else { yd0[i - n] }, 0.0));
         let z0 = &sys.v_inv * x0;
         // Loads on y: Z^T (f(t) - K q_c), entering the velocity half.
         // (only the velocity half of the state is loaded: the right half of V^-1)
         let v_inv_loads = sys.v_inv.columns(n, n);
         let lift = |fy: DVector<C64>| -> DVector<C64> { &v_inv_loads * fy };
-        let c = &zt * (&forcing.constant - origin_force);
+        let c = sys.z.tr_mul(&(&forcing.constant - origin_force));
         let g_const = lift(c.map(|x| C64::new(x, 0.0)));
         let mut harmonics = Vec::new();
         let mut push = |omega: f64, g: DVector<C64>| {
@@ -480,7 +480,7 @@ impl CoupledSegment {
         };
         for h in &forcing.harmonics {
             // Re(b e^{i W t}) = (b e^{i W t} + conj(b) e^{-i W t}) / 2.
-            let by = zt.map(|x| C64::new(x, 0.0)) * &h.amplitude;
+            let by = DVector::from_fn(n, |i, _| sys.z.column(i).iter().zip(h.amplitude.iter()).map(|(z, b)| b * *z).sum::<C64>());
             let half = C64::new(0.5, 0.0);
             push(h.omega, lift(by.map(|b| b * half)));
             push(-h.omega, lift(by.map(|b| b.conj() * half)));
@@ -596,8 +596,8 @@ impl CoupledSegment {
     /// with the sizes its bounds use (constant along the segment).
     pub fn project_functional(&self, sys: &CoupledSystem, forcing: &ModalForcing, h: &Functional) -> ProjectedFunctional {
         let n = sys.n_free();
-        let aq = sys.z.transpose() * &h.q;
-        let bq = h.qd.as_ref().map(|b| sys.z.transpose() * b);
+        let aq = sys.z.tr_mul(&h.q);
+        let bq = h.qd.as_ref().map(|b| sys.z.tr_mul(b));
         let c = DVector::from_fn(2 * n, |k, _| {
             let mut s = C64::new(0.0, 0.0);
             for i in 0..n {

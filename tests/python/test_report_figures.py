@@ -33,11 +33,12 @@ def test_rotating_figures_from_the_committed_csvs(tmp_path):
 
 
 def test_scaling_slope_and_summary():
-    rows = [{"case": "rigid", "modes": n, "run_s": 3e-5 * n ** 1.5, "build_s": 1e-6 * n * n, "probes": 100 * n,
-             "events": 10, "contacts": 5} for n in (4, 16, 32, 64, 128, 500)]
+    rows = [{"case": "rigid", "modes": n, "run_s": 3e-5 * n ** 1.5, "first_s": 2e-6 * n ** 2, "build_s": 1e-6 * n * n,
+             "probes": 100 * n, "events": 10, "contacts": 5} for n in (4, 16, 32, 64, 128, 500)]
     assert math.isclose(scaling.slope(rows, 32, 500), 1.5, rel_tol=1e-12)
     text = scaling.summary(rows)
     assert "between 32 and 500 modes: 1.50" in text
+    assert "the same for the first run: 2.00" in text
     assert "| rigid | 500 |" in text
 
 
