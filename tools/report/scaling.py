@@ -57,9 +57,8 @@ def plot(rows: list[dict], path: pathlib.Path) -> None:
         if not rs:
             continue
         ax.loglog([r["modes"] for r in rs], [r["run_s"] for r in rs], label=LABELS[case], **style)
-        if any("first_s" in r for r in rs):
-            ax.loglog([r["modes"] for r in rs], [r.get("first_s", r["run_s"]) for r in rs], linestyle="--",
-                      color=style["color"], linewidth=0.8, label=f"{case}: first run (with the contact decompositions)")
+        ax.loglog([r["modes"] for r in rs], [r["first_s"] for r in rs], linestyle="--",
+                  color=style["color"], linewidth=0.8, label=f"{case}: first run (with the contact decompositions)")
         ax.loglog([r["modes"] for r in rs], [r["build_s"] for r in rs], linestyle=":", color=style["color"],
                   label=f"{case}: model build (modes, projections)")
     # Guides through the rigid case at N = 32.
@@ -98,7 +97,7 @@ def summary(rows: list[dict]) -> str:
     ]
     for r in sorted(rows, key=lambda r: (r["case"], r["modes"])):
         lines.append(
-            f"| {r['case']} | {r['modes']} | {r['run_s'] * 1e3:.3f} | {r.get('first_s', r['run_s']) * 1e3:.3f} | "
+            f"| {r['case']} | {r['modes']} | {r['run_s'] * 1e3:.3f} | {r['first_s'] * 1e3:.3f} | "
             f"{r['build_s'] * 1e3:.2f} | {r['probes']} | "
             f"{r['events']} | {r['contacts']} | {r['run_s'] * 1e6 / max(r['probes'], 1):.2f} |"
         )
@@ -108,7 +107,7 @@ def summary(rows: list[dict]) -> str:
         s = slope(rs, 32, 500)
         if s is not None:
             lines.append(f"- {case}: fitted slope of log(run time) against log(N) between 32 and 500 modes: {s:.2f}")
-        s_first = slope(rs, 32, 500, "first_s") if all("first_s" in r for r in rs) else None
+        s_first = slope(rs, 32, 500, "first_s")
         if s_first is not None:
             lines.append(f"- {case}: the same for the first run: {s_first:.2f}")
     lines.append("")
