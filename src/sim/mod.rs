@@ -25,7 +25,7 @@ use crate::model::Model;
 use crate::solve::events::{certified_step, converging_on_zero, tendency_from, Certified, Tendency};
 use crate::solve::free::{Increment, ModalBounds, ModalJet};
 use crate::solve::functional::NOISE;
-use crate::solve::lti::{CoordinateBounds, CoupledSample, CoupledSegment, CoupledSystem, LtiError, ProjectedFunctional};
+use crate::solve::lti::{CoordinateBounds, CoupledSample, CoupledSegment, CoupledSystem, LtiError, PhaseLoads, ProjectedFunctional};
 use crate::solve::{FreeDynamics, FreeSegment, Functional, Jet, ModalForcing, ModalState};
 
 /// What happened at an event.
@@ -268,6 +268,9 @@ pub struct Simulation {
     geometries: Vec<Geometry>,
     gap_functionals: Vec<Functional>,
     coupled_cache: HashMap<Vec<Contact>, Arc<CoupledSystem>>,
+    /// The contact phases entered lately, with their projected loads and
+    /// functions (derived data, never part of the state).
+    phase_cache: Vec<PhaseEntry>,
     /// Longest interval over which the event search bounds derivatives.
     tau_max: f64,
     record_events: bool,
@@ -286,6 +289,23 @@ pub struct Simulation {
     /// every event, a pointer moves instead of the scratch vectors' headers.
     event_work: Option<Box<EventWork>>,
 }
+
+/// A contact phase's loads and event functions in its coordinates, for
+/// the next entry into the same phase: found by the system (the same
+/// decomposition), the loads and the origin, compared in full.
+#[derive(Clone, Debug)]
+struct PhaseEntry {
+    system: Arc<CoupledSystem>,
+    forcing: ModalForcing,
+    origin: DVector<f64>,
+    origin_force: DVector<f64>,
+    loads: Arc<PhaseLoads>,
+    projected: Vec<(Functional, ProjectedFunctional)>,
+}
+
+/// At most this many phases are kept (a chatter sequence alternates
+/// between two or three; every active set of several stops is one).
+const PHASE_CACHE_CAPACITY: usize = 8;
 
 /// Work counters of a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -376,6 +396,7 @@ impl Simulation {
             geometries,
             gap_functionals,
             coupled_cache: HashMap::new(),
+            phase_cache: Vec::new(),
             tau_max,
             record_events: true,
             events: Vec::new(),
@@ -776,6 +797,7 @@ impl Simulation {
             && model.stops.iter().zip(&self.model.stops).all(|(a, b)| a.geometry == b.geometry && a.law == b.law);
         if !same_phases {
             self.coupled_cache.clear();
+            self.phase_cache.clear();
             self.transfer_system = None;
         }
         self.tau_max = TAU_MAX_PERIODS * model.shortest_period();
@@ -996,7 +1018,8 @@ impl Simulation {
         let key = self.phase_key();
         let system = self.coupled_system(&key)?;
         let (forcing, origin, origin_force, preload) = self.phase_loads(&system);
-        let segment = CoupledSegment::new(&system, &forcing, &origin, &origin_force, self.state.anchor_time, &self.state.anchor);
+        let entry = self.phase_entry(&system, forcing, origin, origin_force);
+        let segment = CoupledSegment::start(&system, entry.loads.clone(), self.state.anchor_time, &self.state.anchor);
         let mut reactions_by_column = system.reaction_functionals().into_iter();
         let reactions: Vec<Option<Functional>> = key
             .iter()
@@ -1009,20 +1032,49 @@ impl Simulation {
                 })
             })
             .collect();
-        let events = self
+        let functionals: Vec<Functional> = self
             .channels
             .iter()
-            .map(|ch| {
-                let h = match self.watched_functional(ch.stop, ch.watch) {
-                    Some(h) => h,
-                    // Admissible while the stop pushes the beam away: -side lambda >= 0.
-                    None => reactions[ch.stop].clone().expect("held").scaled(-self.model.stops[ch.stop].geometry.side),
-                };
-                segment.project_functional(&system, &forcing, &h)
+            .map(|ch| match self.watched_functional(ch.stop, ch.watch) {
+                Some(h) => h,
+                // Admissible while the stop pushes the beam away: -side lambda >= 0.
+                None => reactions[ch.stop].clone().expect("held").scaled(-self.model.stops[ch.stop].geometry.side),
             })
             .collect();
+        let entry = &mut self.phase_cache[0];
+        let mut events = Vec::with_capacity(functionals.len());
+        for h in functionals {
+            let projected = match entry.projected.iter().find(|(g, _)| *g == h) {
+                Some((_, p)) => p.clone(),
+                None => {
+                    let p = entry.loads.project_functional(&system, &entry.forcing, &h);
+                    entry.projected.push((h, p.clone()));
+                    p
+                }
+            };
+            events.push(projected);
+        }
+        let forcing = entry.forcing.clone();
         self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
         Ok(())
+    }
+
+    /// The cached entry of a contact phase, moved to the front (most
+    /// recent first), or a new one with the loads projected now.
+    fn phase_entry(&mut self, system: &Arc<CoupledSystem>, forcing: ModalForcing, origin: DVector<f64>, origin_force: DVector<f64>) -> &PhaseEntry {
+        let found = self.phase_cache.iter().position(|e| {
+            Arc::ptr_eq(&e.system, system) && e.forcing == forcing && e.origin == origin && e.origin_force == origin_force
+        });
+        let entry = match found {
+            Some(i) => self.phase_cache.remove(i),
+            None => {
+                let loads = Arc::new(PhaseLoads::new(system, &forcing, &origin, &origin_force));
+                PhaseEntry { system: system.clone(), forcing, origin, origin_force, loads, projected: Vec::new() }
+            }
+        };
+        self.phase_cache.truncate(PHASE_CACHE_CAPACITY - 1);
+        self.phase_cache.insert(0, entry);
+        &self.phase_cache[0]
     }
 
     /// Sets the watched event functions of the current contact states;

@@ -111,13 +111,18 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     // - M s^k / k!`, decreasing and concave, whose single root is found from
     // below. Near a transversal zero the cubic one converges cubically.
     if h > 0.0 && h1 < 0.0 && m3 > 0.0 {
-        let (c1, c2) = (h1 - noise(1), (h2 - noise(2)).min(0.0));
-        let cubic = concave_root(&[h, c1, 0.5 * c2, -m3 / 6.0], jet.noise[0]);
+        let (c1, c2, c3) = (h1 - noise(1), (h2 - noise(2)).min(0.0), h3 - noise(3));
+        let cubic_bound = [h, c1, 0.5 * c2, -m3 / 6.0];
+        // The quartic bound exceeds the cubic one by `s^3 (4 (m3 + min(c3,
+        // 0)) - m4 s) / 24`, so on `s <= 4 (m3 + min(c3, 0)) / m4`; when
+        // the cubic's root lies there (it lies below `root_bracket`), the
+        // quartic's root is the larger and the cubic need not be solved.
+        let dominated = m4 > 0.0 && m4 * root_bracket(&cubic_bound) < 4.0 * (m3 + c3.min(0.0));
+        let cubic = if dominated { 0.0 } else { concave_root(&cubic_bound, jet.noise[0]) };
         best = best.max(cubic);
-        if m4 > 0.0 && m4 * cubic < 4.0 * m3 {
+        if m4 > 0.0 && (dominated || m4 * cubic < 4.0 * m3) {
             // The quartic one converges with order four; it is tried where
             // its remainder is the smaller one at the cubic one's step.
-            let c3 = h3 - noise(3);
             let quartic = concave_root(&[h, c1, 0.5 * c2, c3.min(0.0) / 6.0, -m4 / 24.0], jet.noise[0]);
             best = best.max(quartic);
             let cube = quartic * quartic * quartic;
@@ -184,15 +189,43 @@ pub fn split_certificate(jet: &Jet, high_value: f64, high_amp: f64, size: f64, l
     }
 }
 
-/// `p(s) = sum c_k s^k` and `p'(s)` by Horner's rule.
+/// `p(s) = sum c_k s^k` and `p'(s)` by Horner's rule (unrolled: the
+/// degree is a constant).
 #[inline(always)]
-fn polynomial_and_slope(c: &[f64], s: f64) -> (f64, f64) {
+fn polynomial_and_slope<const N: usize>(c: &[f64; N], s: f64) -> (f64, f64) {
     let (mut p, mut dp) = (0.0, 0.0);
     for &ck in c.iter().rev() {
         dp = dp * s + p;
         p = p * s + ck;
     }
     (p, dp)
+}
+
+/// A point past the root of a concave decreasing `p(s) = sum c_k s^k`
+/// (`c_0 > 0`, the other coefficients `<= 0`): the root of `c_0 + c_j s^j`
+/// for any `j` with `c_j < 0`, as `p <= c_0 + c_j s^j`; the smallest of
+/// those. The j-th root (a sqrt, a cbrt) only where the term already
+/// exceeds `c_0` at the point so far, so that it lies before it. Not finite
+/// when no coefficient is negative.
+fn root_bracket<const N: usize>(c: &[f64; N]) -> f64 {
+    let mut b = if c[1] < 0.0 { c[0] / -c[1] } else { f64::INFINITY };
+    for j in 2..N {
+        // b^j by products (the degree is a constant: unrolled, no `powi` call).
+        let mut b_j = b;
+        for _ in 1..j {
+            b_j *= b;
+        }
+        if c[j] < 0.0 && !(-c[j] * b_j <= c[0]) {
+            let ratio = c[0] / -c[j];
+            b = b.min(match j {
+                2 => ratio.sqrt(),
+                3 => ratio.cbrt(),
+                4 => ratio.sqrt().sqrt(),
+                _ => ratio.powf(1.0 / j as f64),
+            });
+        }
+    }
+    b
 }
 
 /// A point `s > 0` below the root of `p(s) = sum c_k s^k` with `c_0 > 0`
@@ -202,28 +235,10 @@ fn polynomial_and_slope(c: &[f64], s: f64) -> (f64, f64) {
 /// a point past the root stays past it. Three rounds from the nearest root
 /// of `c_0 + c_j s^j` leave the returned point within a few percent of the
 /// root, always on its left (`p > 0`).
-fn concave_root(c: &[f64], resolution: f64) -> f64 {
+fn concave_root<const N: usize>(c: &[f64; N], resolution: f64) -> f64 {
     let eval = |s: f64| polynomial_and_slope(c, s);
-    let k = c.len() - 1;
-    // Past the root: the root of `c_0 + c_j s^j` for any `j` with
-    // `c_j < 0`, as p <= c_0 + c_j s^j; the smallest of those tried. The
-    // k-th root (a cbrt for k = 3) only when the others do not already
-    // lie before the last term's root.
-    let mut b = f64::INFINITY;
-    if c[1] < 0.0 {
-        b = c[0] / -c[1];
-    }
-    if k > 2 && c[2] < 0.0 {
-        b = b.min((c[0] / -c[2]).sqrt());
-    }
-    if !(-c[k] * b.powi(k as i32) <= c[0]) {
-        let ratio = c[0] / -c[k];
-        b = b.min(match k {
-            3 => ratio.cbrt(),
-            4 => ratio.sqrt().sqrt(),
-            _ => ratio.powf(1.0 / k as f64),
-        });
-    }
+    let k = N - 1;
+    let mut b = root_bracket(c);
     if !(b.is_finite() && b > 0.0) {
         return 0.0;
     }
@@ -287,7 +302,7 @@ fn concave_root(c: &[f64], resolution: f64) -> f64 {
 
 /// A point 1e-12 before `x` (a converged Newton point) and `p` there, if
 /// it lies right of `a` and `p` is still positive there.
-fn just_before(c: &[f64], x: f64, a: f64) -> Option<(f64, f64)> {
+fn just_before<const N: usize>(c: &[f64; N], x: f64, a: f64) -> Option<(f64, f64)> {
     let near = x * (1.0 - 1e-12);
     if near <= a {
         return None;
@@ -433,7 +448,11 @@ mod tests {
                 hi *= 2.0;
             }
             let lo = first_zero(p, hi);
-            let s = concave_root(c, 0.0);
+            let s = match *c {
+                [a, b, c, d] => concave_root(&[a, b, c, d], 0.0),
+                [a, b, c, d, e] => concave_root(&[a, b, c, d, e], 0.0),
+                _ => unreachable!("cubic and quartic cases"),
+            };
             assert!(s <= lo && p(s) > 0.0, "{c:?}: {s} vs root {lo}");
             assert!(s >= 0.95 * lo, "{c:?}: {s} far below the root {lo}");
         }
@@ -463,6 +482,49 @@ mod tests {
             }
         }
         lo
+    }
+
+    /// Where the cubic bound's root is left unsolved (it lies below
+    /// `root_bracket`, inside the range where the quartic bound is the
+    /// larger), the quartic bound's root is at least the cubic's: checked
+    /// by bisection of both over a grid of values, slopes, curvatures,
+    /// third derivatives and derivative bounds, and the certified step
+    /// reaches 95 % of the larger root whether or not the cubic was solved.
+    #[test]
+    fn an_unsolved_cubic_bound_never_beats_the_quartic() {
+        let (mut skipped, mut solved) = (0, 0);
+        for &h in &[1e-9, 1e-4, 1e-2, 0.3] {
+            for &h1 in &[-1e-3, -0.1, -1.0, -30.0] {
+                for &h2 in &[0.0f64, -0.5, -20.0, 3.0] {
+                    for &h3 in &[-50.0f64, -1.0, 0.0, 2.0, 40.0] {
+                        for &(m3, m4) in &[(60.0, 1.0), (60.0, 1e3), (1e3, 1e5), (5.0, 1e4), (100.0, 10.0)] {
+                            if h3.abs() > m3 {
+                                continue;
+                            }
+                            let c = [h, h1, 0.5 * h2.min(0.0), -m3 / 6.0];
+                            let c3 = h3.min(0.0);
+                            let cubic = |s: f64| c[0] + s * (c[1] + s * (c[2] + s * c[3]));
+                            let quartic = |s: f64| c[0] + s * (c[1] + s * (c[2] + s * (c3 / 6.0 - s * m4 / 24.0)));
+                            let (rc, rq) = (first_zero(cubic, 1e3), first_zero(quartic, 1e3));
+                            let b = DerivativeBounds { tau: 1e3, m: [100.0, m3, m4], floor: [0.0; 4] };
+                            let Certified::Clear(step) = certified_step(&jet([h, h1, h2, h3]), &b, false) else { panic!("no zero at h = {h}") };
+                            let case = format!("h {h} h1 {h1} h2 {h2} h3 {h3} m3 {m3} m4 {m4}: step {step}, roots {rc} (cubic), {rq} (quartic)");
+                            // Never short of what the cubic bound alone certifies.
+                            assert!(step >= 0.95 * rc, "{case}");
+                            if !(m4 * root_bracket(&c) < 4.0 * (m3 + c3)) {
+                                solved += 1;
+                                continue;
+                            }
+                            skipped += 1;
+                            assert!(rq >= rc, "{case}");
+                            // Past the quartic bound's root only where a positive h''' is kept (`extend_decreasing`).
+                            assert!(step >= 0.95 * rq && (step <= rq || h3 > 0.0), "{case}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(skipped > 100 && solved > 100, "skipped {skipped}, solved {solved}");
     }
 
     #[test]

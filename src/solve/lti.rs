@@ -62,8 +62,15 @@ pub struct CoupledSystem {
     /// `eig[k] = conj(eig[k - 1])` exactly: the exponential of a conjugate
     /// pair is computed once.
     conjugate_of_previous: Vec<bool>,
+    /// Besides, column `k` of `V` is exactly the conjugate of column
+    /// `k - 1`: for a real state under real loads coordinate `k` is then
+    /// the conjugate of coordinate `k - 1` (rows `k - 1`, `k` of `V^-1` are
+    /// conjugates), and a probe computes one coordinate of the pair.
+    mirrors_previous: Vec<bool>,
     /// The coordinates by increasing `|L_k|` (conjugate pairs adjacent).
     by_rate: Vec<usize>,
+    /// [`Self::reaction_functionals`], formed once.
+    reactions: Vec<Functional>,
 }
 
 impl CoupledSystem {
@@ -199,11 +206,17 @@ impl CoupledSystem {
                 conjugate_of_previous[k] = true;
             }
         }
+        // The eigensolver returns a complex pair's vectors as exact
+        // conjugates (from one real Schur block); checked, not assumed.
+        let mirrors_previous: Vec<bool> = (0..eig.len())
+            .map(|k| conjugate_of_previous[k] && v.column(k).iter().zip(v.column(k - 1).iter()).all(|(a, b)| *a == b.conj()))
+            .collect();
         let eig_inv = eig.map(|l| C64::new(1.0, 0.0) / l);
         let eig_abs: Vec<f64> = eig.iter().map(|l| l.norm()).collect();
         let mut by_rate: Vec<usize> = (0..eig.len()).collect();
         by_rate.sort_by(|&a, &b| eig_abs[a].total_cmp(&eig_abs[b]));
-        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv, eig_inv, eig_abs, conjugate_of_previous, by_rate })
+        let reactions = reaction_functionals(&k, &d, &w, &gram_inv);
+        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv, eig_inv, eig_abs, conjugate_of_previous, mirrors_previous, by_rate, reactions })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -227,17 +240,7 @@ impl CoupledSystem {
     /// The constraint reactions `lambda = -(W^T W)^-1 W^T (f - D qd - K q)`
     /// (seed 000 eq. 33, one row per held contact) as functionals.
     pub fn reaction_functionals(&self) -> Vec<Functional> {
-        let wg = &self.w * &self.gram_inv;
-        let kq = &self.k * &wg;
-        let dq = &self.d * &wg;
-        (0..self.w.ncols())
-            .map(|s| Functional {
-                offset: 0.0,
-                q: kq.column(s).into_owned(),
-                qd: Some(dq.column(s).into_owned()),
-                f: Some(-wg.column(s).into_owned()),
-            })
-            .collect()
+        self.reactions.clone()
     }
 
     /// Projects a state onto the constraints `W^T q = targets`, `W^T qd = 0`.
@@ -250,6 +253,16 @@ impl CoupledSystem {
         state.q = &q_c + &self.z * (&zt * (&state.q - &q_c));
         state.qd = &self.z * (&zt * &state.qd);
     }
+}
+
+/// See [`CoupledSystem::reaction_functionals`].
+fn reaction_functionals(k: &DMatrix<f64>, d: &DMatrix<f64>, w: &DMatrix<f64>, gram_inv: &DMatrix<f64>) -> Vec<Functional> {
+    let wg = w * gram_inv;
+    let kq = k * &wg;
+    let dq = d * &wg;
+    (0..w.ncols())
+        .map(|s| Functional { offset: 0.0, q: kq.column(s).into_owned(), qd: Some(dq.column(s).into_owned()), f: Some(-wg.column(s).into_owned()) })
+        .collect()
 }
 
 /// The contact phases' decompositions, shared by every simulation of one
@@ -363,10 +376,17 @@ struct ProjectedHarmonic {
     omega: f64,
     g: DVector<C64>,
     steady: Vec<Option<C64>>,
-    /// `g e^{i W t0}`, and `g e^{i W t0} / (L - i W)` where `L` is far from
-    /// `i W`: then the forced part `g e^{i W t} s phi1((L - i W) s)` is
-    /// `(expm1(L s) - expm1(i W s)) g e^{i W t0} / (L - i W)`, which reuses
-    /// the coordinate's own exponential and one rotation per harmonic.
+    /// `1 / (L - i W)` where `L` is far from `i W` ([`direct_factor`]).
+    factor: Vec<Option<C64>>,
+}
+
+/// A harmonic's load rotated to a segment's start: `g e^{i W t0}`, and
+/// `g e^{i W t0} / (L - i W)` where `L` is far from `i W`: then the forced
+/// part `g e^{i W t} s phi1((L - i W) s)` is `(expm1(L s) - expm1(i W s))
+/// g e^{i W t0} / (L - i W)`, which reuses the coordinate's own exponential
+/// and one rotation per harmonic.
+#[derive(Clone, Debug, PartialEq)]
+struct StartedHarmonic {
     g_rot0: DVector<C64>,
     direct: Vec<Option<C64>>,
 }
@@ -428,19 +448,22 @@ struct BoundTerms {
     constant: f64,
 }
 
-/// The exact motion of a coupled phase from an anchor.
+/// What every segment of one contact phase shares, whatever its anchor:
+/// the loads in the system's complex coordinates, their steady responses
+/// and the coordinates' bound terms, for one system, load and origin. A
+/// phase entered again (each sticking phase of a chatter sequence, each
+/// contact of a spring stop) starts its segment from these in O(N^2)
+/// without projecting the loads again.
 #[derive(Clone, Debug)]
-pub struct CoupledSegment {
-    pub t0: f64,
+pub struct PhaseLoads {
     q_c: DVector<f64>,
-    z0: DVector<C64>,
     g_const: DVector<C64>,
     const_steady: Vec<Option<C64>>,
     harmonics: Vec<ProjectedHarmonic>,
     bound_terms: Vec<BoundTerms>,
 }
 
-impl CoupledSegment {
+impl PhaseLoads {
     /// `origin` is the point the motion is measured from: it must satisfy
     /// the constraints `W^T q = targets` (the held stops' positions; for
     /// instance [`CoupledSystem::q_c`]). Choosing it on the surfaces of
@@ -450,21 +473,9 @@ impl CoupledSegment {
     /// net of any preload the loads leave out (`K origin` when there is none;
     /// the caller forms it without the cancellation `k w (w . origin) - k
     /// w target` would cost).
-    pub fn new(
-        sys: &CoupledSystem,
-        forcing: &ModalForcing,
-        origin: &DVector<f64>,
-        origin_force: &DVector<f64>,
-        t0: f64,
-        start: &ModalState,
-    ) -> Self {
+    pub fn new(sys: &CoupledSystem, forcing: &ModalForcing, origin: &DVector<f64>, origin_force: &DVector<f64>) -> Self {
         let n = sys.n_free();
         let q_c = origin.clone();
-        // Z^T x by `tr_mul`: no transposed copy of Z per phase.
-        let y0 = sys.z.tr_mul(&(&start.q - &q_c));
-        let yd0 = sys.z.tr_mul(&start.qd);
-        let x0 = DVector::from_fn(2 * n, |i, _| C64::new(if i < n { y0[i] } else { yd0[i - n] }, 0.0));
-        let z0 = &sys.v_inv * x0;
         // Loads on y: Z^T (f(t) - K q_c), entering the velocity half.
         // (only the velocity half of the state is loaded: the right half of V^-1)
         let v_inv_loads = sys.v_inv.columns(n, n);
@@ -474,9 +485,8 @@ impl CoupledSegment {
         let mut harmonics = Vec::new();
         let mut push = |omega: f64, g: DVector<C64>| {
             let steady = g.iter().zip(sys.eig.iter()).map(|(g, l)| steady_amplitude(*g, *l, omega)).collect();
-            let g_rot0 = &g * C64::from_polar(1.0, omega * t0);
-            let direct = g_rot0.iter().zip(sys.eig.iter()).map(|(g, l)| direct_factor(*l, omega).map(|f| g * f)).collect();
-            harmonics.push(ProjectedHarmonic { omega, g, steady, g_rot0, direct });
+            let factor = sys.eig.iter().map(|l| direct_factor(*l, omega)).collect();
+            harmonics.push(ProjectedHarmonic { omega, g, steady, factor });
         };
         for h in &forcing.harmonics {
             // Re(b e^{i W t}) = (b e^{i W t} + conj(b) e^{-i W t}) / 2.
@@ -512,7 +522,112 @@ impl CoupledSegment {
                 terms
             })
             .collect();
-        CoupledSegment { t0, q_c, z0, g_const, const_steady, harmonics, bound_terms }
+        PhaseLoads { q_c, g_const, const_steady, harmonics, bound_terms }
+    }
+
+    /// A functional in the complex coordinates: `h = offset + Re(c . z) + f-part`,
+    /// with the sizes its bounds use (constant along the phase).
+    pub fn project_functional(&self, sys: &CoupledSystem, forcing: &ModalForcing, h: &Functional) -> ProjectedFunctional {
+        let n = sys.n_free();
+        let aq = sys.z.tr_mul(&h.q);
+        let bq = h.qd.as_ref().map(|b| sys.z.tr_mul(b));
+        // c_k = V[.., k] . [aq; bq], a column of V at a time; the second of a
+        // mirrored pair is the first's conjugate.
+        let mut c = DVector::from_element(2 * n, C64::new(0.0, 0.0));
+        for (k, column) in sys.v.column_iter().enumerate() {
+            if sys.mirrors_previous[k] {
+                c[k] = c[k - 1].conj();
+                continue;
+            }
+            let column = column.as_slice();
+            let mut s = C64::new(0.0, 0.0);
+            for (v, a) in column[..n].iter().zip(aq.iter()) {
+                s += v * *a;
+            }
+            if let Some(b) = &bq {
+                for (v, b) in column[n..].iter().zip(b.iter()) {
+                    s += v * *b;
+                }
+            }
+            c[k] = s;
+        }
+        let c_abs = c.iter().map(|c| c.norm()).collect();
+        // sum_j |c_j| max |f_j^(m)|, m = 0..=4.
+        let load_bounds = std::array::from_fn(|m| {
+            h.f.as_ref().map_or(0.0, |cf| cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum())
+        });
+        let f_const = h.f.as_ref().map_or(0.0, |cf| cf.dot(&forcing.constant));
+        let f_harmonics = match &h.f {
+            Some(cf) => forcing.harmonics.iter().map(|hm| hm.amplitude.iter().zip(cf.iter()).map(|(b, c)| b * *c).sum()).collect(),
+            None => Vec::new(),
+        };
+        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, c_abs, f: h.f.clone(), f_const, f_harmonics, load_bounds }
+    }
+}
+
+/// The exact motion of a coupled phase from an anchor.
+#[derive(Clone, Debug)]
+pub struct CoupledSegment {
+    pub t0: f64,
+    loads: Arc<PhaseLoads>,
+    z0: DVector<C64>,
+    started: Vec<StartedHarmonic>,
+}
+
+impl CoupledSegment {
+    /// The motion from `(t0, start)` under freshly projected loads (see
+    /// [`PhaseLoads::new`] for `origin` and `origin_force`).
+    pub fn new(
+        sys: &CoupledSystem,
+        forcing: &ModalForcing,
+        origin: &DVector<f64>,
+        origin_force: &DVector<f64>,
+        t0: f64,
+        start: &ModalState,
+    ) -> Self {
+        Self::start(sys, Arc::new(PhaseLoads::new(sys, forcing, origin, origin_force)), t0, start)
+    }
+
+    /// The motion from `(t0, start)` under a phase's projected loads.
+    pub fn start(sys: &CoupledSystem, loads: Arc<PhaseLoads>, t0: f64, start: &ModalState) -> Self {
+        let n = sys.n_free();
+        let len = sys.eig.len();
+        // Z^T x by `tr_mul`: no transposed copy of Z per phase.
+        let y0 = sys.z.tr_mul(&(&start.q - &loads.q_c));
+        let yd0 = sys.z.tr_mul(&start.qd);
+        // z0 = V^-1 [y0; yd0], the real vector taken as such (two real
+        // products per entry, not four), column by column; the second
+        // coordinate of a mirrored pair is the first's conjugate.
+        let mut z0 = DVector::from_element(len, C64::new(0.0, 0.0));
+        {
+            let z = z0.as_mut_slice();
+            for (i, column) in sys.v_inv.column_iter().enumerate() {
+                let x = if i < n { y0[i] } else { yd0[i - n] };
+                for (zk, v) in z.iter_mut().zip(column.iter()) {
+                    *zk += v * x;
+                }
+            }
+            for k in 0..len {
+                if sys.mirrors_previous[k] {
+                    z[k] = z[k - 1].conj();
+                }
+            }
+        }
+        let started = loads
+            .harmonics
+            .iter()
+            .map(|h| {
+                let g_rot0 = &h.g * C64::from_polar(1.0, h.omega * t0);
+                let direct = g_rot0.iter().zip(&h.factor).map(|(g, f)| f.map(|f| g * f)).collect();
+                StartedHarmonic { g_rot0, direct }
+            })
+            .collect();
+        CoupledSegment { t0, loads, z0, started }
+    }
+
+    /// The phase's loads, shared by its segments.
+    pub fn loads(&self) -> &Arc<PhaseLoads> {
+        &self.loads
     }
 
     /// `f(W)` for the first 8 harmonics; the loads' harmonics come in
@@ -521,8 +636,9 @@ impl CoupledSegment {
     /// pair costs one evaluation.
     fn per_harmonic(&self, f: impl Fn(f64) -> C64) -> [C64; 8] {
         let mut out = [C64::new(0.0, 0.0); 8];
-        for (i, h) in self.harmonics.iter().enumerate().take(8) {
-            out[i] = if i % 2 == 1 && h.omega == -self.harmonics[i - 1].omega { out[i - 1].conj() } else { f(h.omega) };
+        let harmonics = &self.loads.harmonics;
+        for (i, h) in harmonics.iter().enumerate().take(8) {
+            out[i] = if i % 2 == 1 && h.omega == -harmonics[i - 1].omega { out[i - 1].conj() } else { f(h.omega) };
         }
         out
     }
@@ -537,23 +653,31 @@ impl CoupledSegment {
     /// `z(t) = e^{L s} z0 + g s phi1(L s) + sum_h g_h e^{i W t} s phi1((L - i W) s)`
     /// (`s = t - t0`) into `out`, with one complex `expm1` per coordinate
     /// and one rotation per harmonic; the near-resonant terms keep `phi1`.
+    /// The second coordinate of a mirrored pair is the first's conjugate.
     fn z_into(&self, sys: &CoupledSystem, t: f64, out: &mut DVector<C64>) {
         let s = t - self.t0;
         let rotations = self.per_harmonic(|w| expm1_c(C64::new(0.0, w * s)));
         let mut previous = C64::new(0.0, 0.0);
+        let out = out.as_mut_slice();
         for k in 0..sys.eig.len() {
+            if sys.mirrors_previous[k] {
+                out[k] = out[k - 1].conj();
+                previous = previous.conj();
+                continue;
+            }
             let l = sys.eig[k];
             let ls = l * s;
             let e = if sys.conjugate_of_previous[k] { previous.conj() } else { expm1_c(ls) };
             previous = e;
-            let forced_const = if ls.norm_sqr() < 1e-10 { self.g_const[k] * phi1(ls) * s } else { self.g_const[k] * e * sys.eig_inv[k] };
+            let g_const = self.loads.g_const[k];
+            let forced_const = if ls.norm_sqr() < 1e-10 { g_const * phi1(ls) * s } else { g_const * e * sys.eig_inv[k] };
             let mut z = self.z0[k] + e * self.z0[k] + forced_const;
-            for (i, h) in self.harmonics.iter().enumerate() {
-                match (h.direct[k], rotations.get(i)) {
+            for (i, (h, started)) in self.loads.harmonics.iter().zip(&self.started).enumerate() {
+                match (started.direct[k], rotations.get(i)) {
                     (Some(c), Some(r)) => z += c * (e - r),
                     _ => {
                         let mu = (l - C64::new(0.0, h.omega)) * s;
-                        z += h.g_rot0[k] * C64::from_polar(1.0, h.omega * s) * phi1(mu) * s;
+                        z += started.g_rot0[k] * C64::from_polar(1.0, h.omega * s) * phi1(mu) * s;
                     }
                 }
             }
@@ -571,8 +695,8 @@ impl CoupledSegment {
         let zero = C64::new(0.0, 0.0);
         let iz = DVector::from_fn(sys.eig.len(), |k, _| {
             let ls = sys.eig[k] * s;
-            let mut v = self.z0[k] * phi1(ls) * s + self.g_const[k] * exp_divdiff2(zero, ls) * (s * s);
-            for h in &self.harmonics {
+            let mut v = self.z0[k] * phi1(ls) * s + self.loads.g_const[k] * exp_divdiff2(zero, ls) * (s * s);
+            for h in &self.loads.harmonics {
                 let rot0 = C64::from_polar(1.0, h.omega * self.t0);
                 v += h.g[k] * rot0 * exp_divdiff2(ls, C64::new(0.0, h.omega * s)) * (s * s);
             }
@@ -580,7 +704,7 @@ impl CoupledSegment {
         });
         let x = &sys.v * iz;
         let y = DVector::from_fn(n, |i, _| x[i].re);
-        &self.q_c * s + &sys.z * y
+        &self.loads.q_c * s + &sys.z * y
     }
 
     pub fn state_at(&self, sys: &CoupledSystem, t: f64, out: &mut ModalState) {
@@ -588,37 +712,13 @@ impl CoupledSegment {
         let x = &sys.v * self.z_at(sys, t);
         let y = DVector::from_fn(n, |i, _| x[i].re);
         let yd = DVector::from_fn(n, |i, _| x[i + n].re);
-        out.q = &self.q_c + &sys.z * y;
+        out.q = &self.loads.q_c + &sys.z * y;
         out.qd = &sys.z * yd;
     }
 
-    /// A functional in the complex coordinates: `h = offset + Re(c . z) + f-part`,
-    /// with the sizes its bounds use (constant along the segment).
+    /// [`PhaseLoads::project_functional`] with this segment's loads.
     pub fn project_functional(&self, sys: &CoupledSystem, forcing: &ModalForcing, h: &Functional) -> ProjectedFunctional {
-        let n = sys.n_free();
-        let aq = sys.z.tr_mul(&h.q);
-        let bq = h.qd.as_ref().map(|b| sys.z.tr_mul(b));
-        let c = DVector::from_fn(2 * n, |k, _| {
-            let mut s = C64::new(0.0, 0.0);
-            for i in 0..n {
-                s += sys.v[(i, k)] * aq[i];
-                if let Some(b) = &bq {
-                    s += sys.v[(i + n, k)] * b[i];
-                }
-            }
-            s
-        });
-        let c_abs = c.iter().map(|c| c.norm()).collect();
-        // sum_j |c_j| max |f_j^(m)|, m = 0..=4.
-        let load_bounds = std::array::from_fn(|m| {
-            h.f.as_ref().map_or(0.0, |cf| cf.iter().enumerate().map(|(j, c)| c.abs() * forcing.bound(j, m as u32)).sum())
-        });
-        let f_const = h.f.as_ref().map_or(0.0, |cf| cf.dot(&forcing.constant));
-        let f_harmonics = match &h.f {
-            Some(cf) => forcing.harmonics.iter().map(|hm| hm.amplitude.iter().zip(cf.iter()).map(|(b, c)| b * *c).sum()).collect(),
-            None => Vec::new(),
-        };
-        ProjectedFunctional { offset: h.offset + h.q.dot(&self.q_c), c, c_abs, f: h.f.clone(), f_const, f_harmonics, load_bounds }
+        self.loads.project_functional(sys, forcing, h)
     }
 
     /// The complex coordinates, their derivatives `z^(m) = L z^(m-1) + g^(m-1)`
@@ -630,7 +730,7 @@ impl CoupledSegment {
                 t,
                 z: std::array::from_fn(|_| DVector::zeros(len)),
                 size: std::array::from_fn(|_| DVector::zeros(len)),
-                rotations: Vec::with_capacity(self.harmonics.len()),
+                rotations: Vec::with_capacity(self.loads.harmonics.len()),
             };
         }
         out.t = t;
@@ -638,16 +738,23 @@ impl CoupledSegment {
         // e^{i W t} per harmonic; (i W)^m applied per coordinate.
         out.rotations.clear();
         let first = self.per_harmonic(|w| C64::from_polar(1.0, w * t));
-        out.rotations.extend(self.harmonics.iter().enumerate().map(|(i, h)| (h.omega, first.get(i).copied().unwrap_or_else(|| C64::from_polar(1.0, h.omega * t)))));
+        out.rotations.extend(self.loads.harmonics.iter().enumerate().map(|(i, h)| (h.omega, first.get(i).copied().unwrap_or_else(|| C64::from_polar(1.0, h.omega * t)))));
         let CoupledSample { z, size, rotations, .. } = out;
         let [z0, z1, z2, z3] = z;
         let [s0, s1, s2, s3] = size;
+        let (z0, z1, z2, z3) = (z0.as_mut_slice(), z1.as_mut_slice(), z2.as_mut_slice(), z3.as_mut_slice());
+        let (s0, s1, s2, s3) = (s0.as_mut_slice(), s1.as_mut_slice(), s2.as_mut_slice(), s3.as_mut_slice());
         for k in 0..len {
+            if sys.mirrors_previous[k] {
+                (z1[k], z2[k], z3[k]) = (z1[k - 1].conj(), z2[k - 1].conj(), z3[k - 1].conj());
+                (s0[k], s1[k], s2[k], s3[k]) = (s0[k - 1], s1[k - 1], s2[k - 1], s3[k - 1]);
+                continue;
+            }
             let l = sys.eig[k];
             let la = sys.eig_abs[k];
             // g, g', g'' of the loads on coordinate k.
-            let (mut g0, mut g1, mut g2) = (self.g_const[k], C64::new(0.0, 0.0), C64::new(0.0, 0.0));
-            for (h, (omega, rot)) in self.harmonics.iter().zip(rotations.iter()) {
+            let (mut g0, mut g1, mut g2) = (self.loads.g_const[k], C64::new(0.0, 0.0), C64::new(0.0, 0.0));
+            for (h, (omega, rot)) in self.loads.harmonics.iter().zip(rotations.iter()) {
                 let u = h.g[k] * rot;
                 g0 += u;
                 g1 += C64::new(-omega * u.im, omega * u.re);
@@ -706,16 +813,19 @@ impl CoupledSegment {
     /// g_res` with `Re L <= 0`: `|r| <= |r(t)| + tau max|g_res|` and
     /// `r^(m) = L^m r + sum_i L^(m-1-i) g_res^(i)`.
     pub fn coordinate_bounds_into(&self, sys: &CoupledSystem, sample: &CoupledSample, tau: f64, out: &mut Vec<CoordinateBounds>) {
-        let t = sample.t;
-        let rotations = self.per_harmonic(|w| C64::from_polar(1.0, w * t));
         out.clear();
         for k in 0..sample.z[0].len() {
+            if sys.mirrors_previous[k] {
+                // |conj z| = |z|, and the pair's loads mirror each other.
+                out.push(out[k - 1]);
+                continue;
+            }
             let l = sys.eig_abs[k];
-            let terms = &self.bound_terms[k];
-            let mut zp = self.const_steady[k].unwrap_or(C64::new(0.0, 0.0));
-            for (i, h) in self.harmonics.iter().enumerate() {
+            let terms = &self.loads.bound_terms[k];
+            let mut zp = self.loads.const_steady[k].unwrap_or(C64::new(0.0, 0.0));
+            // The sample's rotations `e^{i W t}`, one per harmonic.
+            for (h, (_, rot)) in self.loads.harmonics.iter().zip(&sample.rotations) {
                 if let Some(p) = h.steady[k] {
-                    let rot = rotations.get(i).copied().unwrap_or_else(|| C64::from_polar(1.0, h.omega * t));
                     zp += p * rot;
                 }
             }
@@ -949,6 +1059,70 @@ mod tests {
         assert!((&out.q - &q).norm() < 1e-10 * q.norm(), "{:e}", (&out.q - &q).norm() / q.norm());
         assert!((&out.qd - &v).norm() < 1e-9 * v.norm(), "{:e}", (&out.qd - &v).norm() / v.norm());
         assert!((wv.dot(&out.q) - 0.01).abs() < 1e-14);
+    }
+
+    /// A probe computes one coordinate of each mirrored pair and takes the
+    /// other as its conjugate: against the same system with every
+    /// coordinate computed on its own (mirroring off), the coordinates,
+    /// their derivatives, sizes and bounds, the projected functional and
+    /// the start agree to rounding, on 24 modes with a held point, dense
+    /// projected damping, a constant and a harmonic load.
+    #[test]
+    fn mirrored_coordinates_match_their_own_computation() {
+        let n = 24;
+        let pi4 = std::f64::consts::PI.powi(4);
+        let k = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| ((j + 1) as f64).powi(4) * pi4));
+        let d = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| 0.1 * ((j + 1) as f64).powi(2) * std::f64::consts::PI.powi(2)));
+        let w = DMatrix::from_fn(n, 1, |j, _| 2f64.sqrt() * ((j + 1) as f64 * std::f64::consts::PI * 0.37).sin());
+        let mirrored = CoupledSystem::new(k.clone(), d, w).unwrap();
+        let pairs = mirrored.conjugate_of_previous.iter().filter(|&&c| c).count();
+        assert!(pairs >= n / 2 && mirrored.mirrors_previous == mirrored.conjugate_of_previous, "{pairs} pairs, mirrored {:?}", mirrored.mirrors_previous);
+        let mut own = mirrored.clone();
+        own.mirrors_previous.fill(false);
+        let mut forcing = ModalForcing::zero(n);
+        forcing.constant = DVector::from_fn(n, |j, _| 0.3 / (j + 1) as f64);
+        forcing.add_harmonic(60.0, DVector::from_fn(n, |j, _| C64::new(0.0, -5.0 * (0.5 + j as f64).sin())));
+        let targets = dvector![0.01];
+        let mut start = ModalState { q: DVector::from_fn(n, |j, _| 0.02 / ((j + 1) as f64).powi(2)), qd: DVector::from_fn(n, |j, _| 0.1 * (j as f64).cos()) };
+        mirrored.project(&targets, &mut start);
+        let q_c = mirrored.q_c(&targets);
+        let h = Functional { offset: 0.3, q: DVector::from_fn(n, |j, _| (j as f64 * 0.7).sin()), qd: Some(DVector::from_fn(n, |j, _| 0.01 * (j as f64).cos())), f: None };
+        let close = |a: C64, b: C64, scale: f64| (a - b).norm() <= 1e-13 * scale;
+        let (a, b) = ((&mirrored, CoupledSegment::new(&mirrored, &forcing, &q_c, &(&k * &q_c), 0.2, &start)), (&own, CoupledSegment::new(&own, &forcing, &q_c, &(&k * &q_c), 0.2, &start)));
+        let z_scale = b.1.z0.iter().map(|z| z.norm()).fold(0.0, f64::max);
+        assert!(a.1.z0.iter().zip(b.1.z0.iter()).all(|(x, y)| close(*x, *y, z_scale)));
+        let (pa, pb) = (a.1.project_functional(a.0, &forcing, &h), b.1.project_functional(b.0, &forcing, &h));
+        let c_scale = pb.c_abs.iter().copied().fold(0.0, f64::max);
+        assert!(pa.c.iter().zip(pb.c.iter()).all(|(x, y)| close(*x, *y, c_scale)));
+        let (mut sa, mut sb, mut ba, mut bb) = (CoupledSample::default(), CoupledSample::default(), Vec::new(), Vec::new());
+        for t in [0.2, 0.2 + 1e-9, 0.21, 0.35, 1.7] {
+            a.1.sample_into(a.0, t, &mut sa);
+            b.1.sample_into(b.0, t, &mut sb);
+            for m in 0..4 {
+                let scale = sb.size[m].max();
+                for kk in 0..2 * (n - 1) {
+                    assert!(close(sa.z[m][kk], sb.z[m][kk], scale), "t = {t}, z^({m})_{kk}: {} vs {}", sa.z[m][kk], sb.z[m][kk]);
+                    assert!((sa.size[m][kk] - sb.size[m][kk]).abs() <= 1e-13 * scale);
+                }
+            }
+            let (ja, jb) = (a.1.jet(&pa, &sa), b.1.jet(&pb, &sb));
+            for m in 0..4 {
+                assert!((ja.d[m] - jb.d[m]).abs() <= ja.noise[m], "t = {t}: h^({m}) {} vs {}", ja.d[m], jb.d[m]);
+            }
+            a.1.coordinate_bounds_into(a.0, &sa, 0.1, &mut ba);
+            b.1.coordinate_bounds_into(b.0, &sb, 0.1, &mut bb);
+            // `|z - z_steady|` carries the rounding of both terms (absolute,
+            // at the coordinate's own size), and the m-th derivative's bound
+            // takes it times |L|^m.
+            for (kk, (x, y)) in ba.iter().zip(&bb).enumerate() {
+                let level = 1e-13 * (sb.size[0][kk] + y.sup);
+                assert!((x.sup - y.sup).abs() <= level);
+                for slot in 0..3 {
+                    let tol = level * a.0.eig_abs[kk].powi(slot as i32 + 2);
+                    assert!((x.m[slot] - y.m[slot]).abs() <= tol, "t = {t}, coordinate {kk}, slot {slot}: {:?} vs {:?}", x, y);
+                }
+            }
+        }
     }
 
     /// The exact integral of the coordinates against Gauss-Legendre
