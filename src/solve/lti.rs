@@ -385,7 +385,7 @@ struct ProjectedHarmonic {
 /// part `g e^{i W t} s phi1((L - i W) s)` is `(expm1(L s) - expm1(i W s))
 /// g e^{i W t0} / (L - i W)`, which reuses the coordinate's own exponential
 /// and one rotation per harmonic.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 struct StartedHarmonic {
     g_rot0: DVector<C64>,
     direct: Vec<Option<C64>>,
@@ -623,11 +623,6 @@ impl CoupledSegment {
             })
             .collect();
         CoupledSegment { t0, loads, z0, started }
-    }
-
-    /// The phase's loads, shared by its segments.
-    pub fn loads(&self) -> &Arc<PhaseLoads> {
-        &self.loads
     }
 
     /// `f(W)` for the first 8 harmonics; the loads' harmonics come in
@@ -1010,23 +1005,31 @@ mod tests {
         assert!((wv.dot(&out.q) - 0.25).abs() < 1e-14);
     }
 
+    /// A pinned beam of `n` modes with modal damping held at one point:
+    /// `(K, D, W)`, a constant and a harmonic load (60 rad/s, between two
+    /// coupled frequencies, one near a resonance), the held position and a
+    /// start off the constraint.
+    fn held_beam(n: usize) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, ModalForcing, DVector<f64>, ModalState) {
+        let pi4 = std::f64::consts::PI.powi(4);
+        let k = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| ((j + 1) as f64).powi(4) * pi4));
+        let d = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| 0.1 * ((j + 1) as f64).powi(2) * std::f64::consts::PI.powi(2)));
+        let w = DMatrix::from_fn(n, 1, |j, _| 2f64.sqrt() * ((j + 1) as f64 * std::f64::consts::PI * 0.37).sin());
+        let mut forcing = ModalForcing::zero(n);
+        forcing.constant = DVector::from_fn(n, |j, _| 0.3 / (j + 1) as f64);
+        forcing.add_harmonic(60.0, DVector::from_fn(n, |j, _| C64::new(0.0, -5.0 * (0.5 + j as f64).sin())));
+        let start = ModalState { q: DVector::from_fn(n, |j, _| 0.02 / ((j + 1) as f64).powi(2)), qd: DVector::from_fn(n, |j, _| 0.1 * (j as f64).cos()) };
+        (k, d, w, forcing, dvector![0.01], start)
+    }
+
     /// Many modes, a held point and modal damping (dense projected damping,
     /// conjugate pairs, a load between two coupled frequencies, one near a
     /// resonance): the closed form against RK4 on the constrained equations.
     #[test]
     fn many_mode_sticking_phase_matches_projected_rk4() {
         let n = 24;
-        let pi4 = std::f64::consts::PI.powi(4);
-        let k = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| ((j + 1) as f64).powi(4) * pi4));
-        let d = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| 0.1 * ((j + 1) as f64).powi(2) * std::f64::consts::PI.powi(2)));
-        let w = DMatrix::from_fn(n, 1, |j, _| 2f64.sqrt() * ((j + 1) as f64 * std::f64::consts::PI * 0.37).sin());
+        let (k, d, w, forcing, targets, mut start) = held_beam(n);
         let sys = CoupledSystem::new(k.clone(), d.clone(), w.clone()).unwrap();
         assert!(sys.conjugate_of_previous.iter().filter(|&&c| c).count() >= n / 2, "pairs found");
-        let mut forcing = ModalForcing::zero(n);
-        forcing.constant = DVector::from_fn(n, |j, _| 0.3 / (j + 1) as f64);
-        forcing.add_harmonic(60.0, DVector::from_fn(n, |j, _| C64::new(0.0, -5.0 * (0.5 + j as f64).sin())));
-        let targets = dvector![0.01];
-        let mut start = ModalState { q: DVector::from_fn(n, |j, _| 0.02 / ((j + 1) as f64).powi(2)), qd: DVector::from_fn(n, |j, _| 0.1 * (j as f64).cos()) };
         sys.project(&targets, &mut start);
         let (t0, t1) = (0.2, 0.45);
         let q_c = sys.q_c(&targets);
@@ -1070,20 +1073,12 @@ mod tests {
     #[test]
     fn mirrored_coordinates_match_their_own_computation() {
         let n = 24;
-        let pi4 = std::f64::consts::PI.powi(4);
-        let k = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| ((j + 1) as f64).powi(4) * pi4));
-        let d = DMatrix::from_diagonal(&DVector::from_fn(n, |j, _| 0.1 * ((j + 1) as f64).powi(2) * std::f64::consts::PI.powi(2)));
-        let w = DMatrix::from_fn(n, 1, |j, _| 2f64.sqrt() * ((j + 1) as f64 * std::f64::consts::PI * 0.37).sin());
+        let (k, d, w, forcing, targets, mut start) = held_beam(n);
         let mirrored = CoupledSystem::new(k.clone(), d, w).unwrap();
         let pairs = mirrored.conjugate_of_previous.iter().filter(|&&c| c).count();
         assert!(pairs >= n / 2 && mirrored.mirrors_previous == mirrored.conjugate_of_previous, "{pairs} pairs, mirrored {:?}", mirrored.mirrors_previous);
         let mut own = mirrored.clone();
         own.mirrors_previous.fill(false);
-        let mut forcing = ModalForcing::zero(n);
-        forcing.constant = DVector::from_fn(n, |j, _| 0.3 / (j + 1) as f64);
-        forcing.add_harmonic(60.0, DVector::from_fn(n, |j, _| C64::new(0.0, -5.0 * (0.5 + j as f64).sin())));
-        let targets = dvector![0.01];
-        let mut start = ModalState { q: DVector::from_fn(n, |j, _| 0.02 / ((j + 1) as f64).powi(2)), qd: DVector::from_fn(n, |j, _| 0.1 * (j as f64).cos()) };
         mirrored.project(&targets, &mut start);
         let q_c = mirrored.q_c(&targets);
         let h = Functional { offset: 0.3, q: DVector::from_fn(n, |j, _| (j as f64 * 0.7).sin()), qd: Some(DVector::from_fn(n, |j, _| 0.01 * (j as f64).cos())), f: None };
