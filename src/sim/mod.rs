@@ -589,11 +589,12 @@ impl Simulation {
             return;
         }
         self.state.accounted = t;
+        // Only a pressed dashpot dissipates, and only a coupled phase has one.
+        let Segment::Coupled { system, .. } = &self.segment else { return };
         let dashpots: Vec<(usize, f64)> = (0..self.model.stops.len())
             .filter(|&i| self.state.stops[i].contact == Contact::Pressed)
             .filter_map(|i| self.model.stops[i].law.dashpot().map(|c| (i, c)))
             .collect();
-        let Segment::Coupled { system, .. } = &self.segment else { return };
         if dashpots.is_empty() {
             return;
         }

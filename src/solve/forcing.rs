@@ -2,6 +2,7 @@
 
 use nalgebra::DVector;
 
+use super::elementary::unit;
 use super::oscillator::C64;
 
 /// One harmonic component: `Re(amplitude_j e^{i omega t})` on mode j.
@@ -46,7 +47,7 @@ impl ModalForcing {
         let span = b - a;
         let mut out = &self.constant * span;
         for h in &self.harmonics {
-            let factor = C64::from_polar(1.0, h.omega * a) * super::oscillator::phi1(C64::new(0.0, h.omega * span)) * span;
+            let factor = unit(h.omega * a) * super::oscillator::phi1(C64::new(0.0, h.omega * span)) * span;
             for (o, amp) in out.iter_mut().zip(h.amplitude.iter()) {
                 *o += (amp * factor).re;
             }
@@ -63,7 +64,7 @@ impl ModalForcing {
         }
         for h in &self.harmonics {
             // (i Omega)^m e^{i Omega t}
-            let factor = C64::from_polar(1.0, h.omega * t) * C64::new(0.0, h.omega).powu(m);
+            let factor = unit(h.omega * t) * C64::new(0.0, h.omega).powu(m);
             for (o, b) in out.iter_mut().zip(h.amplitude.iter()) {
                 *o += (b * factor).re;
             }
@@ -75,11 +76,11 @@ impl ModalForcing {
         let mut buffer = [C64::new(0.0, 0.0); 8];
         if self.harmonics.len() <= buffer.len() {
             for (r, h) in buffer.iter_mut().zip(&self.harmonics) {
-                *r = C64::from_polar(1.0, h.omega * t);
+                *r = unit(h.omega * t);
             }
             self.derivatives_rotated(&buffer[..self.harmonics.len()], out);
         } else {
-            let rotations: Vec<C64> = self.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t)).collect();
+            let rotations: Vec<C64> = self.harmonics.iter().map(|h| unit(h.omega * t)).collect();
             self.derivatives_rotated(&rotations, out);
         }
     }

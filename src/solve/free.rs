@@ -6,6 +6,7 @@
 
 use nalgebra::DVector;
 
+use super::elementary::{sin_cos, unit};
 use super::events::split_certificate;
 use super::forcing::ModalForcing;
 use super::functional::{DerivativeBounds, Functional, Jet, NOISE};
@@ -97,6 +98,9 @@ struct ModeSegment {
     beta: f64,
     /// Static response to the constant load.
     x_static: f64,
+    /// The anchor's own state: the state at `t0` is the anchor, bit for bit.
+    q0: f64,
+    qd0: f64,
 }
 
 /// Closed-form free motion from an anchor `(t0, q0, qd0)`.
@@ -136,7 +140,7 @@ impl FreeSegment {
     pub fn reset(&mut self, dynamics: &FreeDynamics, t0: f64, start: &ModalState) {
         self.t0 = t0;
         self.start_rotations.clear();
-        self.start_rotations.extend(dynamics.forcing.harmonics.iter().map(|h| C64::from_polar(1.0, h.omega * t0)));
+        self.start_rotations.extend(dynamics.forcing.harmonics.iter().map(|h| unit(h.omega * t0)));
         self.modes.clear();
         self.parts.clear();
         // Plain loops over slices: the event loop resets at every impact.
@@ -160,7 +164,7 @@ impl FreeSegment {
                 };
                 self.parts.push(part);
             }
-            self.modes.push(ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static });
+            self.modes.push(ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static, q0: q[j], qd0: qd[j] });
         }
     }
 
@@ -177,12 +181,48 @@ impl FreeSegment {
         self.evaluate(dynamics, t, out, Some(increment));
     }
 
-    fn evaluate(&self, dynamics: &FreeDynamics, t: f64, out: &mut ModalState, mut increment: Option<&mut Increment>) {
+    fn evaluate(&self, dynamics: &FreeDynamics, t: f64, out: &mut ModalState, increment: Option<&mut Increment>) {
         let s = t - self.t0;
+        if s == 0.0 {
+            // The probe right after an event: no kernels to evaluate.
+            self.at_anchor(dynamics, out, increment);
+            return;
+        }
+        self.evaluate_after_anchor(dynamics, s, out, increment);
+    }
+
+    /// [`Self::evaluate`] at the anchor: its state, a zero increment, and
+    /// the steady response summed as at any other time.
+    fn at_anchor(&self, dynamics: &FreeDynamics, out: &mut ModalState, increment: Option<&mut Increment>) {
+        let n = self.modes.len();
+        let (q, qd) = (&mut out.q.as_mut_slice()[..n], &mut out.qd.as_mut_slice()[..n]);
+        for (j, seg) in self.modes.iter().enumerate() {
+            (q[j], qd[j]) = (seg.q0, seg.qd0);
+        }
+        let Some(inc) = increment else { return };
+        inc.rotations.clear();
+        inc.rotations.extend_from_slice(&self.start_rotations);
+        let harmonics = &dynamics.forcing.harmonics;
+        let n_harmonics = harmonics.len();
+        let (dq, size) = (&mut inc.dq.as_mut_slice()[..n], &mut inc.size.as_mut_slice()[..n]);
+        let (steady_q, steady_qd) = (&mut inc.steady_q.as_mut_slice()[..n], &mut inc.steady_qd.as_mut_slice()[..n]);
+        for (j, seg) in self.modes.iter().enumerate() {
+            let (mut xp, mut vp) = (seg.x_static, 0.0);
+            for (part, h) in self.parts[j * n_harmonics..(j + 1) * n_harmonics].iter().zip(harmonics) {
+                if let HarmonicPart::Steady(pb) = part {
+                    xp += pb.re;
+                    vp -= h.omega * pb.im;
+                }
+            }
+            (dq[j], size[j], steady_q[j], steady_qd[j]) = (0.0, 0.0, xp, vp);
+        }
+    }
+
+    fn evaluate_after_anchor(&self, dynamics: &FreeDynamics, s: f64, out: &mut ModalState, mut increment: Option<&mut Increment>) {
         // e^{i W s} and e^{i W s} - 1 without cancellation, shared by
         // every mode: one sin_cos of the half angle for both.
         let rotation = |h: &super::forcing::Harmonic| {
-            let (sh, ch) = (0.5 * h.omega * s).sin_cos();
+            let (sh, ch) = sin_cos(0.5 * h.omega * s);
             let m1 = C64::new(-2.0 * sh * sh, 2.0 * sh * ch);
             (C64::new(1.0 + m1.re, m1.im), m1)
         };
@@ -747,6 +787,35 @@ mod tests {
         }
         assert!(t < 20.0 && probes < 5000, "the gap closes in this scene: t = {t}, {probes} probes");
         assert!(longer > probes / 4, "the split certified a longer step at {longer} of {probes} probes");
+    }
+
+    #[test]
+    fn the_state_at_the_anchor_is_the_anchor_and_agrees_with_the_kernels_there() {
+        // Steady and near-resonant (from rest) harmonic parts, a constant load.
+        let oscs = vec![Oscillator::new(1.0, 0.0), Oscillator::new(4.0, 0.1), Oscillator::new(9.0, 0.02)];
+        let mut forcing = ModalForcing::zero(3);
+        forcing.constant = dvector![0.3, -0.2, 0.05];
+        forcing.add_harmonic(1.0, dvector![C64::new(0.2, -1.0), C64::new(0.0, -0.5), C64::new(0.1, 0.1)]);
+        forcing.add_harmonic(2.5, dvector![C64::new(-0.4, 0.3), C64::new(0.7, 0.0), C64::new(0.0, 2.0)]);
+        let dynamics = FreeDynamics::new(oscs, forcing);
+        let start = ModalState { q: dvector![0.1, 0.2, -0.05], qd: dvector![-0.3, 0.4, 1.5] };
+        let t0 = 0.7;
+        let seg = FreeSegment::new(&dynamics, t0, &start);
+        let (mut at, mut general) = (ModalState::zeros(3), ModalState::zeros(3));
+        let (mut inc_at, mut inc_general) = (Increment::new(3), Increment::new(3));
+        seg.state_and_increment_at(&dynamics, t0, &mut at, &mut inc_at);
+        seg.evaluate_after_anchor(&dynamics, 0.0, &mut general, Some(&mut inc_general));
+        assert_eq!((&at.q, &at.qd), (&start.q, &start.qd));
+        for j in 0..3 {
+            let close = |a: f64, b: f64| (a - b).abs() <= 4.0 * f64::EPSILON * b.abs().max(1.0);
+            assert!(close(at.q[j], general.q[j]) && close(at.qd[j], general.qd[j]), "mode {j}");
+            assert_eq!((inc_at.dq[j], inc_at.size[j]), (0.0, 0.0));
+            assert!(close(inc_at.steady_q[j], inc_general.steady_q[j]) && close(inc_at.steady_qd[j], inc_general.steady_qd[j]), "mode {j}");
+        }
+        assert_eq!(inc_at.rotations, inc_general.rotations);
+        let mut plain = ModalState::zeros(3);
+        seg.state_at(&dynamics, t0, &mut plain);
+        assert_eq!((&plain.q, &plain.qd), (&start.q, &start.qd));
     }
 
     #[test]

@@ -13,6 +13,7 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, DVector};
 
+use super::elementary::unit;
 use super::forcing::ModalForcing;
 use super::free::ModalState;
 use super::events::split_certificate;
@@ -618,7 +619,7 @@ impl CoupledSegment {
             .harmonics
             .iter()
             .map(|h| {
-                let g_rot0 = &h.g * C64::from_polar(1.0, h.omega * t0);
+                let g_rot0 = &h.g * unit(h.omega * t0);
                 let direct = g_rot0.iter().zip(&h.factor).map(|(g, f)| f.map(|f| g * f)).collect();
                 StartedHarmonic { g_rot0, direct }
             })
@@ -673,7 +674,7 @@ impl CoupledSegment {
                     (Some(c), Some(r)) => z += c * (e - r),
                     _ => {
                         let mu = (l - C64::new(0.0, h.omega)) * s;
-                        z += started.g_rot0[k] * C64::from_polar(1.0, h.omega * s) * phi1(mu) * s;
+                        z += started.g_rot0[k] * unit(h.omega * s) * phi1(mu) * s;
                     }
                 }
             }
@@ -693,7 +694,7 @@ impl CoupledSegment {
             let ls = sys.eig[k] * s;
             let mut v = self.z0[k] * phi1(ls) * s + self.loads.g_const[k] * exp_divdiff2(zero, ls) * (s * s);
             for h in &self.loads.harmonics {
-                let rot0 = C64::from_polar(1.0, h.omega * self.t0);
+                let rot0 = unit(h.omega * self.t0);
                 v += h.g[k] * rot0 * exp_divdiff2(ls, C64::new(0.0, h.omega * s)) * (s * s);
             }
             v
@@ -748,8 +749,8 @@ impl CoupledSegment {
         self.z_into(sys, t, &mut out.z[0]);
         // e^{i W t} per harmonic; (i W)^m applied per coordinate.
         out.rotations.clear();
-        let first = self.per_harmonic(|w| C64::from_polar(1.0, w * t));
-        out.rotations.extend(self.loads.harmonics.iter().enumerate().map(|(i, h)| (h.omega, first.get(i).copied().unwrap_or_else(|| C64::from_polar(1.0, h.omega * t)))));
+        let first = self.per_harmonic(|w| unit(w * t));
+        out.rotations.extend(self.loads.harmonics.iter().enumerate().map(|(i, h)| (h.omega, first.get(i).copied().unwrap_or_else(|| unit(h.omega * t)))));
         let CoupledSample { z, size, rotations, .. } = out;
         let [z0, z1, z2, z3] = z;
         let [s0, s1, s2, s3] = size;

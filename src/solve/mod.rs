@@ -7,6 +7,7 @@
 //! Nonlinear phases (Hertz contact, rotating beams) are integrated by
 //! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks.
 
+pub mod elementary;
 pub mod events;
 pub mod forcing;
 pub mod free;

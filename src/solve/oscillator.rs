@@ -8,14 +8,16 @@
 
 use nalgebra::Complex;
 
+use super::elementary::{exp_m1, sin_cos};
+
 pub type C64 = Complex<f64>;
 
 /// `expm1` of a complex argument, accurate for small `|z|`.
 pub fn expm1_c(z: C64) -> C64 {
-    let em = z.re.exp_m1();
+    let em = exp_m1(z.re);
     // One sin_cos of the half angle: sin y = 2 sin(y/2) cos(y/2),
     // cos y - 1 = -2 sin^2(y/2).
-    let (sh, ch) = (0.5 * z.im).sin_cos();
+    let (sh, ch) = sin_cos(0.5 * z.im);
     let cy_m1 = -2.0 * sh * sh;
     // e^x cos y - 1 = expm1(x) cos y + (cos y - 1): no cancellation for x <= 0.
     C64::new(em * (1.0 + cy_m1) + cy_m1, (em + 1.0) * (2.0 * sh * ch))
@@ -76,19 +78,21 @@ pub fn exp_divdiff2(x: C64, y: C64) -> C64 {
 /// damping); the last one without cancellation for small `q`.
 fn c0_s0(q: f64) -> (f64, f64, f64) {
     if q.abs() < 1e-2 {
-        // The Taylor series in Horner form, with the factorials' reciprocals
+        // The Taylor series with the factorials' reciprocals
         // as constants: multiplications, not a chain of divisions (the
         // tiny flights of a chatter sequence land here at every probe).
         const C: [f64; 5] = [-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0, 1.0 / 40320.0, -1.0 / 3628800.0];
         const S: [f64; 5] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0];
-        let cm1 = q * (C[0] + q * (C[1] + q * (C[2] + q * (C[3] + q * C[4]))));
-        let s = 1.0 + q * (S[0] + q * (S[1] + q * (S[2] + q * (S[3] + q * S[4]))));
+        // Estrin's scheme: independent products, three levels deep.
+        let (q2, q4) = (q * q, q * q * (q * q));
+        let cm1 = q * ((C[0] + C[1] * q) + q2 * (C[2] + C[3] * q) + q4 * C[4]);
+        let s = 1.0 + q * ((S[0] + S[1] * q) + q2 * (S[2] + S[3] * q) + q4 * S[4]);
         (1.0 + cm1, s, cm1)
     } else if q > 0.0 {
         let r = q.sqrt();
         // One sin_cos of the half angle: sin r = 2 sin(r/2) cos(r/2),
         // cos r - 1 = -2 sin^2(r/2).
-        let (sh, ch) = (0.5 * r).sin_cos();
+        let (sh, ch) = sin_cos(0.5 * r);
         let cm1 = -2.0 * sh * sh;
         (1.0 + cm1, 2.0 * sh * ch / r, cm1)
     } else {
@@ -151,14 +155,14 @@ impl Oscillator {
         // `t s0 = sin(r) / root`: no division by `r` on the common path.
         let (c0, t_s0, c0m1) = if self.dd > 0.0 && r * r >= 1e-2 {
             // c0_s0(r^2) without taking the square root back.
-            let (sh, ch) = (0.5 * r).sin_cos();
+            let (sh, ch) = sin_cos(0.5 * r);
             let cm1 = -2.0 * sh * sh;
             (1.0 + cm1, 2.0 * sh * ch * self.inv_root, cm1)
         } else {
             let (c0, s0, c0m1) = c0_s0(if self.dd >= 0.0 { r * r } else { -r * r });
             (c0, t * s0, c0m1)
         };
-        let em1 = if self.a == 0.0 { 0.0 } else { (-self.a * t).exp_m1() };
+        let em1 = if self.a == 0.0 { 0.0 } else { exp_m1(-self.a * t) };
         let e = 1.0 + em1;
         // e c0 - 1 = (e - 1) c0 + (c0 - 1)
         (e * c0, e * t_s0, em1 * c0 + c0m1)
@@ -278,7 +282,7 @@ mod tests {
 
     #[test]
     fn the_short_time_series_matches_the_closed_form_up_to_its_switch() {
-        // Below r^2 = 1e-2 the kernels come from the Horner series; against
+        // Below r^2 = 1e-2 the kernels come from the Taylor series; against
         // cos, sin (under-damped) and cosh, sinh (over-damped) directly.
         for (zeta, sign) in [(0.0, 1.0), (0.6, 1.0), (1.8, -1.0)] {
             let osc = Oscillator::new(3.0, zeta);
