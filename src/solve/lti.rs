@@ -830,31 +830,25 @@ impl CoupledSegment {
             if sys.mirrors_previous[k] {
                 // |conj z| = |z|, and the pair's loads mirror each other.
                 let mut mirrored: CoordinateBounds = out[k - 1];
-                mirrored.steady = mirrored.steady.map(|z| z.conj());
+                mirrored.steady = mirrored.steady.conj();
                 out.push(mirrored);
                 continue;
             }
             let l = sys.eig_abs[k];
             let terms = &self.loads.bound_terms[k];
-            // The steady response and its first three derivatives, from the
-            // sample's rotations `e^{i W t}`, one per harmonic.
-            let mut steady = [self.loads.const_steady[k].unwrap_or(C64::new(0.0, 0.0)), C64::new(0.0, 0.0), C64::new(0.0, 0.0), C64::new(0.0, 0.0)];
-            for (h, &(w, rot)) in self.loads.harmonics.iter().zip(&sample.rotations) {
+            let mut zp = self.loads.const_steady[k].unwrap_or(C64::new(0.0, 0.0));
+            // The sample's rotations `e^{i W t}`, one per harmonic.
+            for (h, (_, rot)) in self.loads.harmonics.iter().zip(&sample.rotations) {
                 if let Some(p) = h.steady[k] {
-                    let mut term = p * rot;
-                    for d in steady.iter_mut() {
-                        *d += term;
-                        term = C64::new(-w * term.im, w * term.re);
-                    }
+                    zp += p * rot;
                 }
             }
-            let zp = steady[0];
             let growth = if sys.eig[k].re > 0.0 { (sys.eig[k].re * tau).exp() } else { 1.0 };
             let dz = sample.z[0][k] - zp;
             let r = growth * ((dz.re * dz.re + dz.im * dz.im).sqrt() + NOISE * terms.size + terms.resonant[0] * tau);
             let powers = [1.0, l, l * l, l * l * l, l * l * l * l];
             // The steady part is at most its constant and harmonic amplitudes.
-            let mut bounds = CoordinateBounds { m: [0.0; 3], floor: [0.0; 4], sup: r + terms.constant + terms.steady[0], transient: r, steady };
+            let mut bounds = CoordinateBounds { m: [0.0; 3], floor: [0.0; 4], sup: r + terms.constant + terms.steady[0], transient: r, steady: zp };
             for (slot, m) in (2..5).enumerate() {
                 let mut b = powers[m] * r;
                 for i in 0..m {
@@ -869,6 +863,46 @@ impl CoupledSegment {
             }
             out.push(bounds);
         }
+    }
+
+    /// The split of [`Self::split_step`] into transients and steady
+    /// responses; 0 when the transients' amplitude exceeds the value (the
+    /// derivatives are only formed where the split can certify).
+    fn transient_split_step(&self, p: &ProjectedFunctional, sample: &CoupledSample, coords: &[CoordinateBounds], jet: &Jet, plain: &DerivativeBounds, size: f64) -> f64 {
+        let (mut value, mut amp) = (0.0, 0.0);
+        for (k, b) in coords.iter().enumerate() {
+            value += (p.c[k] * (sample.z[0][k] - b.steady)).re;
+            amp += p.c_abs[k] * b.transient;
+        }
+        if !(jet.d[0] - value - amp > 0.0) {
+            return 0.0;
+        }
+        // The transients' derivatives: the coordinates' less the steady
+        // responses' `sum_h P (i W)^m e^{i W t}`.
+        let (mut transient, mut steady_m) = ([0.0; 3], [0.0; 3]);
+        for (k, c) in p.c.iter().enumerate() {
+            let mut steady = [C64::new(0.0, 0.0); 3];
+            for (h, &(w, rot)) in self.loads.harmonics.iter().zip(&sample.rotations) {
+                if let Some(pk) = h.steady[k] {
+                    let mut term = pk * rot;
+                    for d in steady.iter_mut() {
+                        term = C64::new(-w * term.im, w * term.re);
+                        *d += term;
+                    }
+                }
+            }
+            for m in 0..3 {
+                transient[m] += (c * (sample.z[m + 1][k] - steady[m])).re;
+            }
+            let terms = &self.loads.bound_terms[k];
+            for slot in 0..3 {
+                steady_m[slot] += p.c_abs[k] * terms.steady[slot + 2];
+            }
+        }
+        let steady_derivatives = [jet.d[1] - transient[0], jet.d[2] - transient[1], jet.d[3] - transient[2]];
+        let m = [steady_m[0] + p.load_bounds[2], steady_m[1] + p.load_bounds[3], steady_m[2] + p.load_bounds[4]];
+        let bounds = DerivativeBounds { tau: plain.tau, m, floor: plain.floor };
+        split_certificate(jet, value, amp, size + amp, steady_derivatives, &bounds)
     }
 
     /// Bounds on `|h''|, |h'''|, |h''''|` over `[t, t + tau]`.
@@ -921,23 +955,7 @@ impl CoupledSegment {
             amp_all += p.c_abs[k] * coords[k].sup;
             size_all += p.c_abs[k] * sample.size[0][k];
         }
-        // Transients against steady responses.
-        let (mut transient, mut transient_amp, mut steady_m) = ([0.0; 4], 0.0, [0.0; 3]);
-        for k in 0..len {
-            let b = &coords[k];
-            for m in 0..4 {
-                transient[m] += (p.c[k] * (sample.z[m][k] - b.steady[m])).re;
-            }
-            transient_amp += p.c_abs[k] * b.transient;
-            let terms = &self.loads.bound_terms[k];
-            for slot in 0..3 {
-                steady_m[slot] += p.c_abs[k] * terms.steady[slot + 2];
-            }
-        }
-        let steady_derivatives = [jet.d[1] - transient[1], jet.d[2] - transient[2], jet.d[3] - transient[3]];
-        let m = [steady_m[0] + p.load_bounds[2], steady_m[1] + p.load_bounds[3], steady_m[2] + p.load_bounds[4]];
-        let bounds = DerivativeBounds { tau: plain.tau, m, floor: plain.floor };
-        let mut best = split_certificate(jet, transient[0], transient_amp, size_all + amp_all + transient_amp, steady_derivatives, &bounds);
+        let mut best = self.transient_split_step(p, sample, coords, jet, plain, size_all + amp_all);
         let (mut low, mut low_m, mut amp_low) = ([0.0; 4], [0.0; 3], 0.0);
         let mut next_split = 1;
         for (count, &k) in sys.by_rate.iter().enumerate().take(len - 1) {
@@ -978,8 +996,8 @@ pub struct CoordinateBounds {
     sup: f64,
     /// `max |z_k - zp_k|`: the transient (and any near-resonant response).
     transient: f64,
-    /// The steady response `zp_k` and its first three derivatives at the sample.
-    steady: [C64; 4],
+    /// The steady response `zp_k` at the sample.
+    steady: C64,
 }
 
 /// A functional expressed in a coupled segment's complex coordinates.
