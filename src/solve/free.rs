@@ -678,16 +678,22 @@ mod tests {
     use super::*;
     use nalgebra::dvector;
 
-    #[test]
-    fn displacement_jets_and_bounds_are_the_modal_arrays_sums_bit_for_bit() {
-        // Two harmonics (one resonant with mode 1), damping, an offset: the
-        // fused sums must give exactly what the modal arrays give.
+    /// Three modes (undamped, light, over-critical), a constant load and
+    /// two harmonics, one resonant with mode 1 (its response taken from rest).
+    fn two_harmonic_dynamics() -> FreeDynamics {
         let oscs = vec![Oscillator::new(1.0, 0.0), Oscillator::new(4.0, 0.1), Oscillator::new(9.0, 2.0)];
         let mut forcing = ModalForcing::zero(3);
         forcing.constant = dvector![0.3, -0.2, 0.1];
         forcing.add_harmonic(1.0, dvector![C64::new(0.0, -1.0), C64::new(0.0, -0.5), C64::new(0.2, 0.0)]);
         forcing.add_harmonic(2.5, dvector![C64::new(0.4, 0.1), C64::new(-0.3, 0.0), C64::new(0.0, 0.7)]);
-        let dynamics = FreeDynamics::new(oscs, forcing);
+        FreeDynamics::new(oscs, forcing)
+    }
+
+    #[test]
+    fn displacement_jets_and_bounds_are_the_modal_arrays_sums_bit_for_bit() {
+        // Two harmonics (one resonant with mode 1), damping, an offset: the
+        // fused sums must give exactly what the modal arrays give.
+        let dynamics = two_harmonic_dynamics();
         let start = ModalState { q: dvector![0.1, 0.2, -0.1], qd: dvector![-0.3, 0.4, 0.2] };
         let seg = FreeSegment::new(&dynamics, 0.4, &start);
         let h = Functional::of_position(1.2, dvector![0.9, -0.6, 0.3]);
@@ -792,12 +798,7 @@ mod tests {
     #[test]
     fn the_state_at_the_anchor_is_the_anchor_and_agrees_with_the_kernels_there() {
         // Steady and near-resonant (from rest) harmonic parts, a constant load.
-        let oscs = vec![Oscillator::new(1.0, 0.0), Oscillator::new(4.0, 0.1), Oscillator::new(9.0, 0.02)];
-        let mut forcing = ModalForcing::zero(3);
-        forcing.constant = dvector![0.3, -0.2, 0.05];
-        forcing.add_harmonic(1.0, dvector![C64::new(0.2, -1.0), C64::new(0.0, -0.5), C64::new(0.1, 0.1)]);
-        forcing.add_harmonic(2.5, dvector![C64::new(-0.4, 0.3), C64::new(0.7, 0.0), C64::new(0.0, 2.0)]);
-        let dynamics = FreeDynamics::new(oscs, forcing);
+        let dynamics = two_harmonic_dynamics();
         let start = ModalState { q: dvector![0.1, 0.2, -0.05], qd: dvector![-0.3, 0.4, 1.5] };
         let t0 = 0.7;
         let seg = FreeSegment::new(&dynamics, t0, &start);
