@@ -924,12 +924,13 @@ mod tests {
         assert!((out.q[0] - x).abs() < 1e-13, "{} {}", out.q[0], x);
         assert!((out.qd[0] - v).abs() < 1e-13);
     }
+
     /// The transient split of free flight: six pinned-beam modes
     /// (`omega_j = j^2 pi^2`, zeta 0.05) rung by an impact (velocities
     /// `ringing cos(j - 1/2)`, ringing 3 unless said), a load at 1 rad/s
     /// on the odd modes, the clearance `offset - sum sin(j pi 0.4) q_j` of
-    /// a stop at x = 0.4; every step
-    /// checked on a 2000-point grid of the exact clearance, steps up to 5.
+    /// a stop at x = 0.4; every step checked on a 2000-point grid of the
+    /// exact clearance, steps up to 5.
     /// - Offset 1 (never reached): 3 probes over 6 time units, against 18
     ///   for the plain certificate alone.
     /// - Offset 0.25: the ringing takes the clearance through zero at
