@@ -243,6 +243,56 @@ fn re_entered_phases_match_phases_projected_afresh() {
     assert_eq!(kept.state().current, fresh.state().current);
 }
 
+/// The phases kept for re-entry hold the loads they were projected under:
+/// a change of the loads mid-run (an input, the actuator's force; or a
+/// parameter, the load's amplitude) must not meet a phase kept from
+/// before. The run with the change, keeping its phases, and one saved and
+/// restored at every stick after it (projecting afresh) agree bit for bit,
+/// and differ from the run without the change.
+#[test]
+fn phases_re_entered_after_the_loads_change_use_the_new_loads() {
+    use beamstop::codec::{Reader, Writer};
+    let model = Model::build(&pinned_scene()).unwrap();
+    let stronger = Model::build(&with(pinned_scene(), &[(ParamKey::LoadAmplitude(0), 90.0)])).unwrap();
+    let changes: [(&str, Model, Vec<f64>); 2] = [("input", model.clone(), vec![-20.0]), ("parameter", stronger, vec![0.0])];
+    for (what, after, inputs) in changes {
+        let mut kept = Simulation::new(model.clone(), 0.0).unwrap();
+        kept.advance_to(7.0).unwrap();
+        let sticks_before = kept.drain_events().iter().filter(|e| matches!(e.kind, EventKind::Stick { .. })).count();
+        assert!(sticks_before >= 2, "{what}: {sticks_before} sticks before the change");
+        let mut unchanged = kept.clone();
+        kept.set_inputs(&inputs).unwrap();
+        kept.set_model(after.clone()).unwrap();
+        let restored = |sim: &Simulation| {
+            let mut w = Writer(Vec::new());
+            sim.encode(&mut w);
+            Simulation::decode(after.clone(), inputs.clone(), &mut Reader::new(&w.0)).unwrap()
+        };
+        let mut fresh = restored(&kept);
+        kept.advance_to(20.0).unwrap();
+        let mut events = Vec::new();
+        let mut restores = 0;
+        for i in 701..=2000 {
+            fresh.advance_to(i as f64 * 0.01).unwrap();
+            let new = fresh.drain_events();
+            if new.iter().any(|e| matches!(e.kind, EventKind::Stick { .. })) {
+                fresh = restored(&fresh);
+                restores += 1;
+            }
+            events.extend(new);
+        }
+        assert!(restores >= 2, "{what}: {restores} sticking phases after the change");
+        let kept_events = kept.drain_events();
+        assert_eq!(kept_events.len(), events.len(), "{what}");
+        for (a, b) in kept_events.iter().zip(&events) {
+            assert_eq!(a.time, b.time, "{what}: {:?} vs {:?}", a.kind, b.kind);
+        }
+        assert_eq!(kept.state().current, fresh.state().current, "{what}");
+        unchanged.advance_to(20.0).unwrap();
+        assert_ne!(unchanged.state().current, kept.state().current, "{what}");
+    }
+}
+
 #[test]
 fn the_trajectory_does_not_depend_on_the_communication_step() {
     for scene in [pinned_scene(), free_vibration(0.8)] {

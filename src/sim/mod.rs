@@ -239,16 +239,7 @@ enum Segment {
         /// segment is that plus an increment accurate relative to itself.
         functions: Vec<(Functional, f64)>,
     },
-    Coupled {
-        system: Arc<CoupledSystem>,
-        /// The loads of the phase (compliant stops' preload included).
-        forcing: ModalForcing,
-        segment: CoupledSegment,
-        /// Each channel's function in this segment's coordinates.
-        events: Vec<ProjectedFunctional>,
-        /// The reaction (seed eq. 33) of each held stop.
-        reactions: Vec<Option<Functional>>,
-    },
+    Coupled { phase: Arc<CoupledPhase>, segment: CoupledSegment },
     /// A nonlinear stop engaged: integrated.
     Integrated(Box<integrated::IntegratedSegment>),
 }
@@ -271,6 +262,11 @@ pub struct Simulation {
     /// The contact phases entered lately, with their projected loads and
     /// functions (derived data, never part of the state).
     phase_cache: Vec<PhaseEntry>,
+    /// The contact phases entered under the current dynamics, most recent
+    /// first: a re-entry (every stick of a chatter-and-stick run) starts
+    /// its segment without forming the phase's loads and functions again.
+    /// Cleared whenever the dynamics or the model change.
+    phase_memo: Vec<PhaseMemo>,
     /// Longest interval over which the event search bounds derivatives.
     tau_max: f64,
     record_events: bool,
@@ -288,6 +284,30 @@ pub struct Simulation {
     /// `None` until the first event). Boxed: taken out and put back at
     /// every event, a pointer moves instead of the scratch vectors' headers.
     event_work: Option<Box<EventWork>>,
+}
+
+/// What every segment of one contact phase shares: built at the phase's
+/// first entry, shared by the later ones (each stick of a run).
+#[derive(Debug)]
+struct CoupledPhase {
+    system: Arc<CoupledSystem>,
+    /// The loads of the phase (compliant stops' preload included).
+    forcing: ModalForcing,
+    loads: Arc<PhaseLoads>,
+    /// Each channel's function in the phase's coordinates.
+    events: Vec<ProjectedFunctional>,
+    /// The reaction (seed eq. 33) of each held stop.
+    reactions: Vec<Option<Functional>>,
+}
+
+/// A contact phase entered before under the current dynamics and model,
+/// found by every stop's contact state and the watched channels (which
+/// fix everything [`CoupledPhase`] holds while the dynamics stay).
+#[derive(Clone, Debug)]
+struct PhaseMemo {
+    contacts: Vec<Contact>,
+    channels: Vec<Channel>,
+    phase: Arc<CoupledPhase>,
 }
 
 /// A contact phase's loads and event functions in its coordinates, for
@@ -397,6 +417,7 @@ impl Simulation {
             gap_functionals,
             coupled_cache: HashMap::new(),
             phase_cache: Vec::new(),
+            phase_memo: Vec::new(),
             tau_max,
             record_events: true,
             events: Vec::new(),
@@ -590,7 +611,8 @@ impl Simulation {
         }
         self.state.accounted = t;
         // Only a pressed dashpot dissipates, and only a coupled phase has one.
-        let Segment::Coupled { system, .. } = &self.segment else { return };
+        let Segment::Coupled { phase, .. } = &self.segment else { return };
+        let system = &phase.system;
         let dashpots: Vec<(usize, f64)> = (0..self.model.stops.len())
             .filter(|&i| self.state.stops[i].contact == Contact::Pressed)
             .filter_map(|i| self.model.stops[i].law.dashpot().map(|c| (i, c)))
@@ -646,20 +668,20 @@ impl Simulation {
             }
             Segment::Free { .. } => 0.0,
             Segment::Integrated(seg) => seg.phase.contacts.iter().position(|c| c.stop == i).map_or(0.0, |k| seg.totals_at(k, t).0),
-            Segment::Coupled { system, forcing, segment, reactions, .. } => match self.state.stops[i].contact {
+            Segment::Coupled { phase, segment } => match self.state.stops[i].contact {
                 Contact::Held => {
-                    let r = reactions[i].as_ref().expect("a held stop has a reaction");
-                    let iq = segment.integral_q(system, t);
+                    let r = phase.reactions[i].as_ref().expect("a held stop has a reaction");
+                    let iq = segment.integral_q(&phase.system, t);
                     let mut lambda = r.q.dot(&iq) + r.offset * span;
                     if let Some(b) = &r.qd {
                         lambda += b.dot(&(&at_t.q - &self.state.anchor.q));
                     }
                     if let Some(c) = &r.f {
-                        lambda += c.dot(&forcing.integral(self.state.anchor_time, t));
+                        lambda += c.dot(&phase.forcing.integral(self.state.anchor_time, t));
                     }
                     -g.side * lambda
                 }
-                Contact::Pressed => pressed_spring(&segment.integral_q(system, t)),
+                Contact::Pressed => pressed_spring(&segment.integral_q(&phase.system, t)),
                 _ => 0.0,
             },
         }
@@ -759,10 +781,10 @@ impl Simulation {
 
     fn reaction_at(&self, stop: usize, t: f64, state: &ModalState) -> f64 {
         match &self.segment {
-            Segment::Coupled { reactions, forcing, .. } => match &reactions[stop] {
+            Segment::Coupled { phase, .. } => match &phase.reactions[stop] {
                 Some(r) => {
                     let mut f = DVector::zeros(self.model.n_modes());
-                    forcing.derivative(t, 0, &mut f);
+                    phase.forcing.derivative(t, 0, &mut f);
                     r.value(state, &f)
                 }
                 None => 0.0,
@@ -783,6 +805,7 @@ impl Simulation {
         self.close_segment(self.state.time, &current);
         self.inputs.copy_from_slice(inputs);
         self.dynamics = phase_dynamics(&self.model, &self.inputs, &self.state);
+        self.phase_memo.clear();
         self.scratch = None;
         self.reanchor_now()
     }
@@ -831,6 +854,7 @@ impl Simulation {
     /// inputs and the state (after a change of basis or of the model).
     fn refresh_basis(&mut self) {
         self.dynamics = phase_dynamics(&self.model, &self.inputs, &self.state);
+        self.phase_memo.clear();
         self.geometries = active_geometries(&self.model, &self.state);
         self.gap_functionals = self.geometries.iter().map(|g| g.gap_functional()).collect();
         self.scratch = None;
@@ -1004,7 +1028,9 @@ impl Simulation {
                 })
                 .collect();
             let reactions = vec![None; self.model.stops.len()];
-            self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
+            let loads = segment.loads().clone();
+            let phase = Arc::new(CoupledPhase { system, forcing, loads, events, reactions });
+            self.segment = Segment::Coupled { phase, segment };
             return Ok(());
         }
         let nonlinear = self.model.stops.iter().zip(&self.state.stops).any(|(m, s)| m.law.term(s.contact) == PhaseTerm::Nonlinear);
@@ -1016,11 +1042,20 @@ impl Simulation {
             self.rebuild_free_segment(channels_changed);
             return Ok(());
         }
+        let memo = self.phase_memo.iter().position(|m| m.channels == self.channels && m.contacts.iter().eq(self.state.stops.iter().map(|s| &s.contact)));
+        if let Some(i) = memo {
+            let memo = self.phase_memo.remove(i);
+            let segment = CoupledSegment::start(&memo.phase.system, memo.phase.loads.clone(), self.state.anchor_time, &self.state.anchor);
+            self.segment = Segment::Coupled { phase: memo.phase.clone(), segment };
+            self.phase_memo.insert(0, memo);
+            return Ok(());
+        }
         let key = self.phase_key();
         let system = self.coupled_system(&key)?;
         let (forcing, origin, origin_force, preload) = self.phase_loads(&system);
         let entry = self.phase_entry(&system, forcing, origin, origin_force);
-        let segment = CoupledSegment::start(&system, entry.loads.clone(), self.state.anchor_time, &self.state.anchor);
+        let loads = entry.loads.clone();
+        let segment = CoupledSegment::start(&system, loads.clone(), self.state.anchor_time, &self.state.anchor);
         let mut reactions_by_column = system.reaction_functionals().into_iter();
         let reactions: Vec<Option<Functional>> = key
             .iter()
@@ -1056,7 +1091,11 @@ impl Simulation {
             events.push(projected);
         }
         let forcing = entry.forcing.clone();
-        self.segment = Segment::Coupled { system, forcing, segment, events, reactions };
+        let phase = Arc::new(CoupledPhase { system, forcing, loads, events, reactions });
+        self.phase_memo.truncate(PHASE_CACHE_CAPACITY - 1);
+        let contacts = self.state.stops.iter().map(|s| s.contact).collect();
+        self.phase_memo.insert(0, PhaseMemo { contacts, channels: self.channels.clone(), phase: phase.clone() });
+        self.segment = Segment::Coupled { phase, segment };
         Ok(())
     }
 
@@ -1132,7 +1171,7 @@ impl Simulation {
     fn state_at(&self, t: f64, out: &mut ModalState) {
         match &self.segment {
             Segment::Free { segment, .. } => segment.state_at(&self.dynamics, t, out),
-            Segment::Coupled { system, segment, .. } => segment.state_at(system, t, out),
+            Segment::Coupled { phase, segment } => segment.state_at(&phase.system, t, out),
             Segment::Integrated(seg) => seg.state_at(t, out),
         }
     }
@@ -1225,7 +1264,8 @@ impl Simulation {
                 }
             }
             Segment::Integrated(_) => unreachable!("integrated phases search on their own steps"),
-            Segment::Coupled { system, segment, events, .. } => {
+            Segment::Coupled { phase, segment } => {
+                let (system, events) = (&phase.system, &phase.events);
                 // The modal state itself is only formed at events (`scan_to`).
                 segment.sample_into(system, t, coupled);
                 let mut coords_ready = false;
@@ -1351,9 +1391,14 @@ impl Simulation {
                 self.stop_at(l);
                 return Err(SimError::TooManyEvents { time: l, count });
             }
-            if matches!(self.segment, Segment::Coupled { .. }) {
-                // Coupled probes sample the complex coordinates only.
-                self.state_at(l, st);
+            if let Segment::Coupled { phase, segment } = &self.segment {
+                // Coupled probes sample the complex coordinates only; the
+                // probe at the event has them at its time.
+                if CoupledSegment::sample_time(&buffers.coupled) == l {
+                    segment.state_at_sample(&phase.system, &buffers.coupled, st);
+                } else {
+                    self.state_at(l, st);
+                }
             }
             self.handle_events(l, st, &buffers.at_zero)?;
             if std::mem::take(&mut self.basis_changed) {
@@ -1536,7 +1581,10 @@ impl Simulation {
         restitution.resize(n_stops, 0.0);
         for &(i, speed) in impacts.iter() {
             let Law::Restitution(law) = &self.model.stops[i].law else { unreachable!("only rigid stops impact") };
-            let negligible = 16.0 * f64::EPSILON * st.qd.amax() * self.model.stops[i].geometry.w.amax();
+            // Largest magnitudes by plain folds (nalgebra's `amax` goes
+            // through its generic SIMD comparisons: dearer for a few modes).
+            let largest = |v: &DVector<f64>| v.as_slice().iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let negligible = 16.0 * f64::EPSILON * largest(&st.qd) * largest(&self.model.stops[i].geometry.w);
             let counters = &mut self.state.stops[i];
             restitution[i] = law.effective(t, counters.previous_impact, speed, negligible);
             counters.impacts += 1;
@@ -1549,7 +1597,7 @@ impl Simulation {
         }
         involved.extend((0..n_stops).filter(|&i| contact[i] == Contact::Held || sticks.contains(&i) || impacts.iter().any(|&(k, _)| k == i)));
         if before.len() == st.qd.len() {
-            before.copy_from(&st.qd);
+            before.as_mut_slice().copy_from_slice(st.qd.as_slice());
         } else {
             *before = st.qd.clone();
         }
@@ -1618,9 +1666,16 @@ impl Simulation {
         }
         if contact.iter().any(|c| *c == Contact::Held) {
             // Exactly on the held stops, moving along them (seed 000 eqs. 29-31:
-            // project at entry so no drift accumulates).
-            let key = self.phase_key();
-            let system = self.coupled_system(&key)?;
+            // project at entry so no drift accumulates). A phase entered
+            // before has its system at hand.
+            let contacts = self.state.stops.iter().map(|s| &s.contact);
+            let system = match self.phase_memo.iter().find(|m| m.contacts.iter().eq(contacts.clone())) {
+                Some(memo) => memo.phase.system.clone(),
+                None => {
+                    let key = self.phase_key();
+                    self.coupled_system(&key)?
+                }
+            };
             system.project(&self.held_targets(), st);
         }
         if let (Some(before), Some(b)) = (energy_before, self.state.balance.as_mut()) {

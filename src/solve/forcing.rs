@@ -104,11 +104,12 @@ impl ModalForcing {
     #[inline]
     pub fn mode_derivatives_rotated<const M: usize>(&self, j: usize, rotations: &[C64]) -> [f64; M] {
         let mut out = [0.0; M];
+        // Slices, not nalgebra's indexing: this runs per mode per probe.
         if M > 0 {
-            out[0] = self.constant[j];
+            out[0] = self.constant.as_slice()[j];
         }
         for (h, &rotation) in self.harmonics.iter().zip(rotations) {
-            let b = h.amplitude[j];
+            let b = h.amplitude.as_slice()[j];
             let mut factor = rotation;
             for o in out.iter_mut() {
                 *o += b.re * factor.re - b.im * factor.im;

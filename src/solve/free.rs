@@ -26,6 +26,8 @@ pub struct FreeDynamics {
 
 #[derive(Clone, Debug, PartialEq)]
 struct ModeLoad {
+    /// The static response to the constant load, `c_j / omega_j^2`.
+    x_static: f64,
     /// Per harmonic: `1 / (omega^2 - Omega^2 + 2 i a Omega)` far from
     /// resonance, `None` near it (the response is then taken from rest).
     inverse_stiffness: Vec<Option<C64>>,
@@ -78,7 +80,7 @@ fn mode_loads(oscillators: &[Oscillator], forcing: &ModalForcing) -> Vec<ModeLoa
                     inverse
                 })
                 .collect();
-            ModeLoad { inverse_stiffness, steady_bounds, resonant_bounds }
+            ModeLoad { x_static, inverse_stiffness, steady_bounds, resonant_bounds }
         })
         .collect()
 }
@@ -145,10 +147,9 @@ impl FreeSegment {
         self.parts.clear();
         // Plain loops over slices: the event loop resets at every impact.
         let harmonics = &dynamics.forcing.harmonics[..];
-        let (constant, q, qd) = (dynamics.forcing.constant.as_slice(), start.q.as_slice(), start.qd.as_slice());
+        let (q, qd) = (start.q.as_slice(), start.qd.as_slice());
         for (j, (osc, load)) in dynamics.oscillators.iter().zip(&dynamics.mode_loads).enumerate() {
-            let w2 = osc.omega * osc.omega;
-            let x_static = constant[j] / w2;
+            let x_static = load.x_static;
             let mut x0 = q[j] - x_static;
             let mut v0 = qd[j];
             for ((h, rotation), inverse) in harmonics.iter().zip(&self.start_rotations).zip(&load.inverse_stiffness) {
@@ -404,7 +405,7 @@ fn mode_bounds(load: &ModeLoad, osc: &Oscillator, rq: f64, rv: f64, tau: f64) ->
     let resonant = &load.resonant_bounds;
     let amp = transient_energy_amplitude(load, osc, rq, rv, tau);
     let mut r = [0.0; 6];
-    r[0] = amp / w;
+    r[0] = amp * osc.inv_omega;
     r[1] = amp;
     for m in 2..6 {
         r[m] = resonant[m - 2] + 2.0 * osc.a * r[m - 1] + w * w * r[m - 2];

@@ -51,8 +51,10 @@ pub struct CoupledSystem {
     /// Full stiffness and damping in modal coordinates.
     k: DMatrix<f64>,
     d: DMatrix<f64>,
-    /// Orthonormal basis of the free directions (N x n).
+    /// Orthonormal basis of the free directions (N x n), and `Z^T`
+    /// (formed once: every stick projects with it).
     z: DMatrix<f64>,
+    z_t: DMatrix<f64>,
     /// Eigenvalues and eigenvectors of `[[0, I], [-Z'KZ, -Z'DZ]]`.
     eig: DVector<C64>,
     v: DMatrix<C64>,
@@ -217,7 +219,8 @@ impl CoupledSystem {
         let mut by_rate: Vec<usize> = (0..eig.len()).collect();
         by_rate.sort_by(|&a, &b| eig_abs[a].total_cmp(&eig_abs[b]));
         let reactions = reaction_functionals(&k, &d, &w, &gram_inv);
-        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, eig, v, v_inv, eig_inv, eig_abs, conjugate_of_previous, mirrors_previous, by_rate, reactions })
+        let z_t = z.transpose();
+        Ok(CoupledSystem { n_modes, w, gram_inv, k, d, z, z_t, eig, v, v_inv, eig_inv, eig_abs, conjugate_of_previous, mirrors_previous, by_rate, reactions })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -250,9 +253,8 @@ impl CoupledSystem {
             return;
         }
         let q_c = self.q_c(targets);
-        let zt = self.z.transpose();
-        state.q = &q_c + &self.z * (&zt * (&state.q - &q_c));
-        state.qd = &self.z * (&zt * &state.qd);
+        state.q = &q_c + &self.z * (&self.z_t * (&state.q - &q_c));
+        state.qd = &self.z * (&self.z_t * &state.qd);
     }
 }
 
@@ -627,6 +629,11 @@ impl CoupledSegment {
         CoupledSegment { t0, loads, z0, started }
     }
 
+    /// The phase's projected loads this motion runs under.
+    pub fn loads(&self) -> &Arc<PhaseLoads> {
+        &self.loads
+    }
+
     /// `f(W)` for the first 8 harmonics; the loads' harmonics come in
     /// pairs `(+W, -W)`, and for the rotations here `f(-W) = conj f(W)`
     /// exactly (cos is even and sin odd in floating point too), so each
@@ -705,8 +712,25 @@ impl CoupledSegment {
     }
 
     pub fn state_at(&self, sys: &CoupledSystem, t: f64, out: &mut ModalState) {
-        let n = sys.n_free();
         let z = self.z_at(sys, t);
+        self.state_from_coordinates(sys, z.as_slice(), out);
+    }
+
+    /// [`Self::state_at`] at the time of `sample` (the event search's
+    /// probe at an event), from the coordinates it already holds: the same
+    /// values, not computed twice.
+    pub fn state_at_sample(&self, sys: &CoupledSystem, sample: &CoupledSample, out: &mut ModalState) {
+        self.state_from_coordinates(sys, sample.z[0].as_slice(), out);
+    }
+
+    /// The time of a sample.
+    pub fn sample_time(sample: &CoupledSample) -> f64 {
+        sample.t
+    }
+
+    /// `(q, qd)` from the complex coordinates `z`.
+    fn state_from_coordinates(&self, sys: &CoupledSystem, z: &[C64], out: &mut ModalState) {
+        let n = sys.n_free();
         // [y; y'] = Re(V z), only the real part formed; a mirrored pair's
         // two products are conjugates, so the first one's real part counts
         // twice (column by column: V is column-major).

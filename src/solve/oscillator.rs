@@ -115,13 +115,15 @@ pub struct Oscillator {
     root: f64,
     /// `1 / root` (infinite at critical damping, where it is not used).
     inv_root: f64,
+    /// `1 / omega`.
+    pub inv_omega: f64,
 }
 
 impl Oscillator {
     pub fn new(omega: f64, zeta: f64) -> Self {
         let dd = omega * omega * (1.0 - zeta) * (1.0 + zeta);
         let root = dd.abs().sqrt();
-        Oscillator { omega, zeta, a: zeta * omega, dd, root, inv_root: 1.0 / root }
+        Oscillator { omega, zeta, a: zeta * omega, dd, root, inv_root: 1.0 / root, inv_omega: 1.0 / omega }
     }
 
     pub fn is_underdamped(&self) -> bool {
