@@ -267,6 +267,10 @@ pub struct Simulation {
     /// its segment without forming the phase's loads and functions again.
     /// Cleared whenever the dynamics or the model change.
     phase_memo: Vec<PhaseMemo>,
+    /// The segment a change of phase displaced, kept for its storage: the
+    /// next segment of its kind (at the next stick, the next release)
+    /// restarts in it instead of allocating its own.
+    spare: Option<Segment>,
     /// Longest interval over which the event search bounds derivatives.
     tau_max: f64,
     record_events: bool,
@@ -418,6 +422,7 @@ impl Simulation {
             coupled_cache: HashMap::new(),
             phase_cache: Vec::new(),
             phase_memo: Vec::new(),
+            spare: None,
             tau_max,
             record_events: true,
             events: Vec::new(),
@@ -1030,12 +1035,13 @@ impl Simulation {
             let reactions = vec![None; self.model.stops.len()];
             let loads = segment.loads().clone();
             let phase = Arc::new(CoupledPhase { system, forcing, loads, events, reactions });
-            self.segment = Segment::Coupled { phase, segment };
+            self.enter(Segment::Coupled { phase, segment });
             return Ok(());
         }
         let nonlinear = self.model.stops.iter().zip(&self.state.stops).any(|(m, s)| m.law.term(s.contact) == PhaseTerm::Nonlinear);
         if nonlinear {
-            self.segment = Segment::Integrated(Box::new(self.integrated_segment()?));
+            let segment = Segment::Integrated(Box::new(self.integrated_segment()?));
+            self.enter(segment);
             return Ok(());
         }
         if self.phase_is_free() {
@@ -1045,8 +1051,8 @@ impl Simulation {
         let memo = self.phase_memo.iter().position(|m| m.channels == self.channels && m.contacts.iter().eq(self.state.stops.iter().map(|s| &s.contact)));
         if let Some(i) = memo {
             let memo = self.phase_memo.remove(i);
-            let segment = CoupledSegment::start(&memo.phase.system, memo.phase.loads.clone(), self.state.anchor_time, &self.state.anchor);
-            self.segment = Segment::Coupled { phase: memo.phase.clone(), segment };
+            let segment = self.start_coupled(&memo.phase.system, memo.phase.loads.clone());
+            self.enter(Segment::Coupled { phase: memo.phase.clone(), segment });
             self.phase_memo.insert(0, memo);
             return Ok(());
         }
@@ -1055,7 +1061,7 @@ impl Simulation {
         let (forcing, origin, origin_force, preload) = self.phase_loads(&system);
         let entry = self.phase_entry(&system, forcing, origin, origin_force);
         let loads = entry.loads.clone();
-        let segment = CoupledSegment::start(&system, loads.clone(), self.state.anchor_time, &self.state.anchor);
+        let segment = self.start_coupled(&system, loads.clone());
         let mut reactions_by_column = system.reaction_functionals().into_iter();
         let reactions: Vec<Option<Functional>> = key
             .iter()
@@ -1095,8 +1101,37 @@ impl Simulation {
         self.phase_memo.truncate(PHASE_CACHE_CAPACITY - 1);
         let contacts = self.state.stops.iter().map(|s| s.contact).collect();
         self.phase_memo.insert(0, PhaseMemo { contacts, channels: self.channels.clone(), phase: phase.clone() });
-        self.segment = Segment::Coupled { phase, segment };
+        self.enter(Segment::Coupled { phase, segment });
         Ok(())
+    }
+
+    /// Makes `segment` the current one, keeping the one it displaces as
+    /// the spare.
+    fn enter(&mut self, segment: Segment) {
+        let displaced = std::mem::replace(&mut self.segment, segment);
+        self.spare = Some(displaced);
+    }
+
+    /// A contact phase's motion from the anchor, in the spare's storage
+    /// when the spare is one.
+    fn start_coupled(&mut self, system: &CoupledSystem, loads: Arc<PhaseLoads>) -> CoupledSegment {
+        match self.spare.take() {
+            Some(Segment::Coupled { mut segment, .. }) => {
+                segment.restart(system, loads, self.state.anchor_time, &self.state.anchor);
+                segment
+            }
+            other => {
+                self.spare = other;
+                CoupledSegment::start(system, loads, self.state.anchor_time, &self.state.anchor)
+            }
+        }
+    }
+
+    /// Whether free-flight event functions are the current channels' (a
+    /// spare's, kept from before a contact phase): gap watches only,
+    /// compared by value.
+    fn functions_fit(&self, functions: &[(Functional, f64)]) -> bool {
+        functions.len() == self.channels.len() && self.channels.iter().zip(functions).all(|(ch, (h, _))| ch.watch == Watch::Gap && *h == self.gap_functionals[ch.stop])
     }
 
     /// The cached entry of a contact phase, moved to the front (most
@@ -1144,7 +1179,17 @@ impl Simulation {
     /// A free segment from the anchor. A free segment before it is
     /// restarted in place, keeping its event functions when the channels
     /// are the same (an impact on a rigid stop): no allocation per impact.
-    fn rebuild_free_segment(&mut self, channels_changed: bool) {
+    fn rebuild_free_segment(&mut self, mut channels_changed: bool) {
+        // After a contact phase, the free segment it displaced.
+        if !matches!(self.segment, Segment::Free { .. }) {
+            if let Some(Segment::Free { functions, .. }) = &self.spare {
+                if self.functions_fit(functions) {
+                    let spare = self.spare.take().expect("a spare");
+                    self.enter(spare);
+                    channels_changed = false;
+                }
+            }
+        }
         let anchor = &self.state.anchor;
         let value_at_anchor = |ch: &Channel, h: &Functional| if self.state.stops[ch.stop].departing[ch.slot] { 0.0 } else { h.value_without_load(anchor) };
         if let Segment::Free { segment, functions } = &mut self.segment {
@@ -1165,7 +1210,8 @@ impl Simulation {
                 (h, at_anchor)
             })
             .collect();
-        self.segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), functions };
+        let segment = Segment::Free { segment: FreeSegment::new(&self.dynamics, self.state.anchor_time, anchor), functions };
+        self.enter(segment);
     }
 
     fn state_at(&self, t: f64, out: &mut ModalState) {

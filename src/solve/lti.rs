@@ -388,7 +388,7 @@ struct ProjectedHarmonic {
 /// part `g e^{i W t} s phi1((L - i W) s)` is `(expm1(L s) - expm1(i W s))
 /// g e^{i W t0} / (L - i W)`, which reuses the coordinate's own exponential
 /// and one rotation per harmonic.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 struct StartedHarmonic {
     g_rot0: DVector<C64>,
     direct: Vec<Option<C64>>,
@@ -568,6 +568,14 @@ impl PhaseLoads {
     }
 }
 
+/// `v` with `n` entries: kept when it has them (its values are then
+/// overwritten by the caller), else a new zero vector.
+fn sized<T: nalgebra::ComplexField>(v: &mut DVector<T>, n: usize) {
+    if v.len() != n {
+        *v = DVector::zeros(n);
+    }
+}
+
 /// The exact motion of a coupled phase from an anchor.
 #[derive(Clone, Debug)]
 pub struct CoupledSegment {
@@ -575,6 +583,10 @@ pub struct CoupledSegment {
     loads: Arc<PhaseLoads>,
     z0: DVector<C64>,
     started: Vec<StartedHarmonic>,
+    /// Work space of [`Self::restart`]: `q - q_c`, `Z^T (q - q_c)`, `Z^T qd`.
+    offset: DVector<f64>,
+    y0: DVector<f64>,
+    yd0: DVector<f64>,
 }
 
 impl CoupledSegment {
@@ -593,17 +605,36 @@ impl CoupledSegment {
 
     /// The motion from `(t0, start)` under a phase's projected loads.
     pub fn start(sys: &CoupledSystem, loads: Arc<PhaseLoads>, t0: f64, start: &ModalState) -> Self {
+        let empty = DVector::zeros(0);
+        let mut segment = CoupledSegment { t0, loads: loads.clone(), z0: DVector::zeros(0), started: Vec::new(), offset: empty.clone(), y0: empty.clone(), yd0: empty };
+        segment.restart(sys, loads, t0, start);
+        segment
+    }
+
+    /// [`Self::start`] in this segment's storage: a phase entered again
+    /// (each stick, each contact) restarts without allocating.
+    pub fn restart(&mut self, sys: &CoupledSystem, loads: Arc<PhaseLoads>, t0: f64, start: &ModalState) {
         let n = sys.n_free();
         let len = sys.eig.len();
-        // Z^T x by `tr_mul`: no transposed copy of Z per phase.
-        let y0 = sys.z.tr_mul(&(&start.q - &loads.q_c));
-        let yd0 = sys.z.tr_mul(&start.qd);
+        self.t0 = t0;
+        self.loads = loads;
+        let loads = &self.loads;
+        // Z^T x by `tr_mul_to`: no transposed copy of Z per phase.
+        sized(&mut self.offset, start.q.len());
+        self.offset.copy_from(&start.q);
+        self.offset -= &loads.q_c;
+        sized(&mut self.y0, n);
+        sized(&mut self.yd0, n);
+        sys.z.tr_mul_to(&self.offset, &mut self.y0);
+        sys.z.tr_mul_to(&start.qd, &mut self.yd0);
+        let (y0, yd0) = (&self.y0, &self.yd0);
         // z0 = V^-1 [y0; yd0], the real vector taken as such (two real
         // products per entry, not four), column by column; the second
         // coordinate of a mirrored pair is the first's conjugate.
-        let mut z0 = DVector::from_element(len, C64::new(0.0, 0.0));
+        sized(&mut self.z0, len);
+        self.z0.fill(C64::new(0.0, 0.0));
         {
-            let z = z0.as_mut_slice();
+            let z = self.z0.as_mut_slice();
             // Column-major: the columns of V^-1 are contiguous.
             for (i, column) in sys.v_inv.as_slice().chunks_exact(len.max(1)).enumerate() {
                 let x = if i < n { y0[i] } else { yd0[i - n] };
@@ -617,16 +648,16 @@ impl CoupledSegment {
                 }
             }
         }
-        let started = loads
-            .harmonics
-            .iter()
-            .map(|h| {
-                let g_rot0 = &h.g * unit(h.omega * t0);
-                let direct = g_rot0.iter().zip(&h.factor).map(|(g, f)| f.map(|f| g * f)).collect();
-                StartedHarmonic { g_rot0, direct }
-            })
-            .collect();
-        CoupledSegment { t0, loads, z0, started }
+        self.started.resize_with(loads.harmonics.len(), StartedHarmonic::default);
+        for (h, started) in loads.harmonics.iter().zip(&mut self.started) {
+            let rotation = unit(h.omega * t0);
+            sized(&mut started.g_rot0, h.g.len());
+            for (g_rot0, g) in started.g_rot0.iter_mut().zip(h.g.iter()) {
+                *g_rot0 = g * rotation;
+            }
+            started.direct.clear();
+            started.direct.extend(started.g_rot0.iter().zip(&h.factor).map(|(g, f)| f.map(|f| g * f)));
+        }
     }
 
     /// The phase's projected loads this motion runs under.
