@@ -209,6 +209,41 @@ fn chatter_ends_in_sticking_with_inter_impact_times_shrinking_by_about_r() {
     }
 }
 
+/// Saves `sim` and restores it into `model` with `inputs`: a simulation
+/// that forms every phase afresh.
+fn restored(sim: &Simulation, model: &Model, inputs: &[f64]) -> Simulation {
+    use beamstop::codec::{Reader, Writer};
+    let mut w = Writer(Vec::new());
+    sim.encode(&mut w);
+    Simulation::decode(model.clone(), inputs.to_vec(), &mut Reader::new(&w.0)).unwrap()
+}
+
+/// Runs `fresh` to t = 20 in steps of 0.01 from step `first`, saved and
+/// restored (into `model` with `inputs`) after every step with a stick,
+/// and checks its events and final state against `kept`, run to t = 20 in
+/// one call, bit for bit. Returns the number of restores.
+fn agrees_with_restores_at_every_stick(kept: &mut Simulation, mut fresh: Simulation, first: usize, model: &Model, inputs: &[f64], what: &str) -> usize {
+    kept.advance_to(20.0).unwrap();
+    let mut events = Vec::new();
+    let mut restores = 0;
+    for i in first..=2000 {
+        fresh.advance_to(i as f64 * 0.01).unwrap();
+        let new = fresh.drain_events();
+        if new.iter().any(|e| matches!(e.kind, EventKind::Stick { .. })) {
+            fresh = restored(&fresh, model, inputs);
+            restores += 1;
+        }
+        events.extend(new);
+    }
+    let kept_events = kept.drain_events();
+    assert_eq!(kept_events.len(), events.len(), "{what}");
+    for (a, b) in kept_events.iter().zip(&events) {
+        assert_eq!(a.time, b.time, "{what}: {:?} vs {:?}", a.kind, b.kind);
+    }
+    assert_eq!(kept.state().current, fresh.state().current, "{what}");
+    restores
+}
+
 /// Each sticking phase re-entered starts from the loads and functions
 /// projected at its first entry (kept by the simulation); a simulation
 /// saved and restored at every stick projects them afresh. Both must give
@@ -216,31 +251,11 @@ fn chatter_ends_in_sticking_with_inter_impact_times_shrinking_by_about_r() {
 /// sticking phases.
 #[test]
 fn re_entered_phases_match_phases_projected_afresh() {
-    use beamstop::codec::{Reader, Writer};
     let model = Model::build(&pinned_scene()).unwrap();
     let mut kept = Simulation::new(model.clone(), 0.0).unwrap();
-    kept.advance_to(20.0).unwrap();
-    let mut fresh = Simulation::new(model.clone(), 0.0).unwrap();
-    let mut events = Vec::new();
-    let mut restores = 0;
-    for i in 1..=2000 {
-        fresh.advance_to(i as f64 * 0.01).unwrap();
-        let new = fresh.drain_events();
-        if new.iter().any(|e| matches!(e.kind, EventKind::Stick { .. })) {
-            let mut w = Writer(Vec::new());
-            fresh.encode(&mut w);
-            fresh = Simulation::decode(model.clone(), vec![], &mut Reader::new(&w.0)).unwrap();
-            restores += 1;
-        }
-        events.extend(new);
-    }
+    let fresh = Simulation::new(model.clone(), 0.0).unwrap();
+    let restores = agrees_with_restores_at_every_stick(&mut kept, fresh, 1, &model, &[], "Figure 4");
     assert!(restores >= 7, "{restores} sticking phases");
-    let kept_events = kept.drain_events();
-    assert_eq!(kept_events.len(), events.len());
-    for (a, b) in kept_events.iter().zip(&events) {
-        assert_eq!(a.time, b.time, "{:?} vs {:?}", a.kind, b.kind);
-    }
-    assert_eq!(kept.state().current, fresh.state().current);
 }
 
 /// The phases kept for re-entry hold the loads they were projected under:
@@ -251,7 +266,6 @@ fn re_entered_phases_match_phases_projected_afresh() {
 /// and differ from the run without the change.
 #[test]
 fn phases_re_entered_after_the_loads_change_use_the_new_loads() {
-    use beamstop::codec::{Reader, Writer};
     let model = Model::build(&pinned_scene()).unwrap();
     let stronger = Model::build(&with(pinned_scene(), &[(ParamKey::LoadAmplitude(0), 90.0)])).unwrap();
     let changes: [(&str, Model, Vec<f64>); 2] = [("input", model.clone(), vec![-20.0]), ("parameter", stronger, vec![0.0])];
@@ -263,31 +277,9 @@ fn phases_re_entered_after_the_loads_change_use_the_new_loads() {
         let mut unchanged = kept.clone();
         kept.set_inputs(&inputs).unwrap();
         kept.set_model(after.clone()).unwrap();
-        let restored = |sim: &Simulation| {
-            let mut w = Writer(Vec::new());
-            sim.encode(&mut w);
-            Simulation::decode(after.clone(), inputs.clone(), &mut Reader::new(&w.0)).unwrap()
-        };
-        let mut fresh = restored(&kept);
-        kept.advance_to(20.0).unwrap();
-        let mut events = Vec::new();
-        let mut restores = 0;
-        for i in 701..=2000 {
-            fresh.advance_to(i as f64 * 0.01).unwrap();
-            let new = fresh.drain_events();
-            if new.iter().any(|e| matches!(e.kind, EventKind::Stick { .. })) {
-                fresh = restored(&fresh);
-                restores += 1;
-            }
-            events.extend(new);
-        }
+        let fresh = restored(&kept, &after, &inputs);
+        let restores = agrees_with_restores_at_every_stick(&mut kept, fresh, 701, &after, &inputs, what);
         assert!(restores >= 2, "{what}: {restores} sticking phases after the change");
-        let kept_events = kept.drain_events();
-        assert_eq!(kept_events.len(), events.len(), "{what}");
-        for (a, b) in kept_events.iter().zip(&events) {
-            assert_eq!(a.time, b.time, "{what}: {:?} vs {:?}", a.kind, b.kind);
-        }
-        assert_eq!(kept.state().current, fresh.state().current, "{what}");
         unchanged.advance_to(20.0).unwrap();
         assert_ne!(unchanged.state().current, kept.state().current, "{what}");
     }
