@@ -314,6 +314,13 @@ struct PhaseMemo {
     phase: Arc<CoupledPhase>,
 }
 
+impl PhaseMemo {
+    /// Whether the stops are in this phase's contact states.
+    fn holds_for(&self, stops: &[StopState]) -> bool {
+        self.contacts.iter().eq(stops.iter().map(|s| &s.contact))
+    }
+}
+
 /// A contact phase's loads and event functions in its coordinates, for
 /// the next entry into the same phase: found by the system (the same
 /// decomposition), the loads and the origin, compared in full.
@@ -1048,7 +1055,7 @@ impl Simulation {
             self.rebuild_free_segment(channels_changed);
             return Ok(());
         }
-        let memo = self.phase_memo.iter().position(|m| m.channels == self.channels && m.contacts.iter().eq(self.state.stops.iter().map(|s| &s.contact)));
+        let memo = self.phase_memo.iter().position(|m| m.channels == self.channels && m.holds_for(&self.state.stops));
         if let Some(i) = memo {
             let memo = self.phase_memo.remove(i);
             let segment = self.start_coupled(&memo.phase.system, memo.phase.loads.clone());
@@ -1440,11 +1447,7 @@ impl Simulation {
             if let Segment::Coupled { phase, segment } = &self.segment {
                 // Coupled probes sample the complex coordinates only; the
                 // probe at the event has them at its time.
-                if CoupledSegment::sample_time(&buffers.coupled) == l {
-                    segment.state_at_sample(&phase.system, &buffers.coupled, st);
-                } else {
-                    self.state_at(l, st);
-                }
+                segment.state_at_sample(&phase.system, l, &buffers.coupled, st);
             }
             self.handle_events(l, st, &buffers.at_zero)?;
             if std::mem::take(&mut self.basis_changed) {
@@ -1714,8 +1717,7 @@ impl Simulation {
             // Exactly on the held stops, moving along them (seed 000 eqs. 29-31:
             // project at entry so no drift accumulates). A phase entered
             // before has its system at hand.
-            let contacts = self.state.stops.iter().map(|s| &s.contact);
-            let system = match self.phase_memo.iter().find(|m| m.contacts.iter().eq(contacts.clone())) {
+            let system = match self.phase_memo.iter().find(|m| m.holds_for(&self.state.stops)) {
                 Some(memo) => memo.phase.system.clone(),
                 None => {
                     let key = self.phase_key();

@@ -747,16 +747,15 @@ impl CoupledSegment {
         self.state_from_coordinates(sys, z.as_slice(), out);
     }
 
-    /// [`Self::state_at`] at the time of `sample` (the event search's
-    /// probe at an event), from the coordinates it already holds: the same
+    /// [`Self::state_at`], from the coordinates `sample` holds when it was
+    /// taken at `t` (the event search's probe at an event): the same
     /// values, not computed twice.
-    pub fn state_at_sample(&self, sys: &CoupledSystem, sample: &CoupledSample, out: &mut ModalState) {
-        self.state_from_coordinates(sys, sample.z[0].as_slice(), out);
-    }
-
-    /// The time of a sample.
-    pub fn sample_time(sample: &CoupledSample) -> f64 {
-        sample.t
+    pub fn state_at_sample(&self, sys: &CoupledSystem, t: f64, sample: &CoupledSample, out: &mut ModalState) {
+        if sample.t == t && sample.z[0].len() == sys.eig.len() {
+            self.state_from_coordinates(sys, sample.z[0].as_slice(), out);
+        } else {
+            self.state_at(sys, t, out);
+        }
     }
 
     /// `(q, qd)` from the complex coordinates `z`.
