@@ -1229,11 +1229,13 @@ impl Simulation {
         }
     }
 
-    /// The departing flags of the current channels.
     /// The channels' departing flags, into `out`.
     fn departing_flags_into(&self, out: &mut Vec<bool>) {
-        out.clear();
-        out.extend(self.channels.iter().map(|ch| self.state.stops[ch.stop].departing[ch.slot]));
+        // Written in place: every probe does this.
+        out.resize(self.channels.len(), false);
+        for (flag, ch) in out.iter_mut().zip(&self.channels) {
+            *flag = self.state.stops[ch.stop].departing[ch.slot];
+        }
     }
 
     /// Stores the search's departing flags back into the stops.
@@ -1247,9 +1249,9 @@ impl Simulation {
     /// the certified step or the list of functions at zero.
     fn probe(&self, t: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Probe {
         let tol = self.model.event_tolerance;
-        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, departing, keep, at_zero, .. } = buffers;
+        let ProbeBuffers { jet: jet_buf, bounds: bound_buf, increment, coupled, coords, departing, keep, at_zero, limiting, .. } = buffers;
         self.departing_flags_into(departing);
-        let mut scan = Scan::new(departing, keep, at_zero);
+        let mut scan = Scan::new(departing, keep, at_zero, limiting);
         match &self.segment {
             Segment::Free { segment: seg, functions } => {
                 seg.state_and_increment_at(&self.dynamics, t, st, increment);
@@ -1388,6 +1390,9 @@ impl Simulation {
         let mut count = 0u64;
         let mut probes = 0u64;
         let (start, balance_rate) = (self.state.time, self.balance_nodes_per_time());
+        // The budget in points as a float, converted once: u64 to f64 is a
+        // dozen instructions on x86-64 (i64 to f64 one), at every probe.
+        let budget = self.model.max_probes_per_step as f64;
         loop {
             if matches!(self.segment, Segment::Integrated(_)) {
                 let Some((te, at, at_zero)) = self.integrated_search(t_end, &mut probes).inspect_err(|_| self.stop_at(self.state.scan.min(t_end)))? else { break };
@@ -1412,7 +1417,7 @@ impl Simulation {
             }
             probes += 1;
             let balance_nodes = balance_rate * (l.min(t_end) - start);
-            if probes as f64 + balance_nodes > self.model.max_probes_per_step as f64 {
+            if probes as i64 as f64 + balance_nodes > budget {
                 self.stop_at(l);
                 return Err(SimError::TooMuchWork { time: l, probes: probes - 1 });
             }
@@ -1433,7 +1438,7 @@ impl Simulation {
                     }
                     // The zero is within one ulp of l.
                     match limiting {
-                        Some(lim) => buffers.at_zero.push(lim),
+                        Some(i) => buffers.at_zero.push((i, buffers.limiting)),
                         None => break,
                     }
                 }
@@ -1824,6 +1829,8 @@ struct ProbeBuffers {
     keep: Vec<bool>,
     /// The functions at their zero after a probe that found events.
     at_zero: Vec<(usize, Jet)>,
+    /// The jet of the function that limited a clear probe's step.
+    limiting: Jet,
 }
 
 impl ProbeBuffers {
@@ -1839,6 +1846,7 @@ impl ProbeBuffers {
             departing: Vec::new(),
             keep: Vec::new(),
             at_zero: Vec::new(),
+            limiting: Jet::default(),
         }
     }
 }
@@ -1846,7 +1854,9 @@ impl ProbeBuffers {
 enum Probe {
     /// No zero at this point; the probe buffers' `keep` holds the
     /// departing flags of functions still within noise of their boundary.
-    Clear { step: f64, limiting: Option<(usize, Jet)> },
+    /// `limiting`: the function that set the step (its jet in the probe
+    /// buffers' `limiting`).
+    Clear { step: f64, limiting: Option<usize> },
     /// Functions at their zero, listed in the probe buffers' `at_zero`.
     Events,
 }
@@ -1857,17 +1867,20 @@ struct Scan<'a> {
     departing: &'a [bool],
     at_zero: &'a mut Vec<(usize, Jet)>,
     step: f64,
-    limiting: Option<(usize, Jet)>,
+    limiting: Option<usize>,
+    /// The limiting function's jet (output; written in place, not moved
+    /// through the probe's result: it is only read at a step below an ulp).
+    limiting_jet: &'a mut Jet,
     /// Functions still departing after this point (output).
     keep: &'a mut Vec<bool>,
 }
 
 impl<'a> Scan<'a> {
-    fn new(departing: &'a [bool], keep: &'a mut Vec<bool>, at_zero: &'a mut Vec<(usize, Jet)>) -> Self {
-        keep.clear();
+    fn new(departing: &'a [bool], keep: &'a mut Vec<bool>, at_zero: &'a mut Vec<(usize, Jet)>, limiting_jet: &'a mut Jet) -> Self {
         keep.resize(departing.len(), false);
+        keep.fill(false);
         at_zero.clear();
-        Scan { departing, at_zero, step: f64::INFINITY, limiting: None, keep }
+        Scan { departing, at_zero, step: f64::INFINITY, limiting: None, limiting_jet, keep }
     }
 
     /// One function: at its zero (an event), or clear for a certified step;
@@ -1886,7 +1899,8 @@ impl<'a> Scan<'a> {
             Certified::Clear(s) => {
                 if s < self.step {
                     self.step = s;
-                    self.limiting = Some((i, jet));
+                    self.limiting = Some(i);
+                    *self.limiting_jet = jet;
                 }
             }
             Certified::AtZero => self.at_zero.push((i, jet)),

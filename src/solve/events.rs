@@ -113,17 +113,22 @@ pub fn certified_step(jet: &Jet, bounds: &DerivativeBounds, departing: bool) -> 
     if h > 0.0 && h1 < 0.0 && m3 > 0.0 {
         let (c1, c2, c3) = (h1 - noise(1), (h2 - noise(2)).min(0.0), h3 - noise(3));
         let cubic_bound = [h, c1, 0.5 * c2, -m3 / 6.0];
+        // The cubic and quartic bounds share their first three
+        // coefficients, so part of their roots' brackets.
+        let head = root_bracket(&[h, c1, 0.5 * c2]);
+        let bracket = extend_bracket(&cubic_bound, head, 3);
         // The quartic bound exceeds the cubic one by `s^3 (4 (m3 + min(c3,
         // 0)) - m4 s) / 24`, so on `s <= 4 (m3 + min(c3, 0)) / m4`; when
         // the cubic's root lies there (it lies below `root_bracket`), the
         // quartic's root is the larger and the cubic need not be solved.
-        let dominated = m4 > 0.0 && m4 * root_bracket(&cubic_bound) < 4.0 * (m3 + c3.min(0.0));
-        let cubic = if dominated { 0.0 } else { concave_root(&cubic_bound, jet.noise[0]) };
+        let dominated = m4 > 0.0 && m4 * bracket < 4.0 * (m3 + c3.min(0.0));
+        let cubic = if dominated { 0.0 } else { concave_root_below(&cubic_bound, bracket, jet.noise[0]) };
         best = best.max(cubic);
         if m4 > 0.0 && (dominated || m4 * cubic < 4.0 * m3) {
             // The quartic one converges with order four; it is tried where
             // its remainder is the smaller one at the cubic one's step.
-            let quartic = concave_root(&[h, c1, 0.5 * c2, c3.min(0.0) / 6.0, -m4 / 24.0], jet.noise[0]);
+            let quartic_bound = [h, c1, 0.5 * c2, c3.min(0.0) / 6.0, -m4 / 24.0];
+            let quartic = concave_root_below(&quartic_bound, extend_bracket(&quartic_bound, head, 3), jet.noise[0]);
             best = best.max(quartic);
             let cube = quartic * quartic * quartic;
             if c3 > 0.0 && c3 * cube > 6.0 * jet.noise[0] && m4 * cube * quartic < 24.0 * jet.noise[0] {
@@ -208,8 +213,16 @@ fn polynomial_and_slope<const N: usize>(c: &[f64; N], s: f64) -> (f64, f64) {
 /// exceeds `c_0` at the point so far, so that it lies before it. Not finite
 /// when no coefficient is negative.
 fn root_bracket<const N: usize>(c: &[f64; N]) -> f64 {
-    let mut b = if c[1] < 0.0 { c[0] / -c[1] } else { f64::INFINITY };
-    for j in 2..N {
+    let b = if c[1] < 0.0 { c[0] / -c[1] } else { f64::INFINITY };
+    extend_bracket(c, b, 2)
+}
+
+/// [`root_bracket`] of `c` from `b`, the bracket of its first `from`
+/// coefficients: polynomials that share those share that part of the
+/// work (a chain of divisions and roots that every step waits for).
+#[inline(always)]
+fn extend_bracket<const N: usize>(c: &[f64; N], mut b: f64, from: usize) -> f64 {
+    for j in from..N {
         // b^j by products (the degree is a constant: unrolled, no `powi` call).
         let mut b_j = b;
         for _ in 1..j {
@@ -236,9 +249,14 @@ fn root_bracket<const N: usize>(c: &[f64; N]) -> f64 {
 /// of `c_0 + c_j s^j` leave the returned point within a few percent of the
 /// root, always on its left (`p > 0`).
 fn concave_root<const N: usize>(c: &[f64; N], resolution: f64) -> f64 {
+    concave_root_below(c, root_bracket(c), resolution)
+}
+
+/// [`concave_root`] given `root_bracket(c)` (a caller that has it already).
+fn concave_root_below<const N: usize>(c: &[f64; N], bracket: f64, resolution: f64) -> f64 {
     let eval = |s: f64| polynomial_and_slope(c, s);
     let k = N - 1;
-    let mut b = root_bracket(c);
+    let mut b = bracket;
     if !(b.is_finite() && b > 0.0) {
         return 0.0;
     }

@@ -141,20 +141,26 @@ impl FreeSegment {
     /// does this at every impact: no allocation once the sizes are known).
     pub fn reset(&mut self, dynamics: &FreeDynamics, t0: f64, start: &ModalState) {
         self.t0 = t0;
-        self.start_rotations.clear();
-        self.start_rotations.extend(dynamics.forcing.harmonics.iter().map(|h| unit(h.omega * t0)));
-        self.modes.clear();
-        self.parts.clear();
-        // Plain loops over slices: the event loop resets at every impact.
+        // Written in place over the previous anchor's entries (plain loops
+        // over slices: the event loop resets at every impact).
         let harmonics = &dynamics.forcing.harmonics[..];
+        let (n, n_harmonics) = (dynamics.oscillators.len(), harmonics.len());
+        let zero = C64::new(0.0, 0.0);
+        self.start_rotations.resize(n_harmonics, zero);
+        for (rotation, h) in self.start_rotations.iter_mut().zip(harmonics) {
+            *rotation = unit(h.omega * t0);
+        }
+        self.modes.resize(n, ModeSegment { alpha: 0.0, beta: 0.0, x_static: 0.0, q0: 0.0, qd0: 0.0 });
+        self.parts.resize(n * n_harmonics, HarmonicPart::Steady(zero));
         let (q, qd) = (start.q.as_slice(), start.qd.as_slice());
-        for (j, (osc, load)) in dynamics.oscillators.iter().zip(&dynamics.mode_loads).enumerate() {
+        for (j, ((osc, load), seg)) in dynamics.oscillators.iter().zip(&dynamics.mode_loads).zip(self.modes.iter_mut()).enumerate() {
             let x_static = load.x_static;
             let mut x0 = q[j] - x_static;
             let mut v0 = qd[j];
-            for ((h, rotation), inverse) in harmonics.iter().zip(&self.start_rotations).zip(&load.inverse_stiffness) {
+            let parts = &mut self.parts[j * n_harmonics..(j + 1) * n_harmonics];
+            for (((h, rotation), inverse), part) in harmonics.iter().zip(&self.start_rotations).zip(&load.inverse_stiffness).zip(parts) {
                 let b = h.amplitude.as_slice()[j] * rotation;
-                let part = match inverse {
+                *part = match inverse {
                     None => HarmonicPart::FromRest(b),
                     Some(inverse) => {
                         let pb = b * inverse;
@@ -163,9 +169,8 @@ impl FreeSegment {
                         HarmonicPart::Steady(pb)
                     }
                 };
-                self.parts.push(part);
             }
-            self.modes.push(ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static, q0: q[j], qd0: qd[j] });
+            *seg = ModeSegment { alpha: x0, beta: v0 + osc.a * x0, x_static, q0: q[j], qd0: qd[j] };
         }
     }
 

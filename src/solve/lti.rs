@@ -252,9 +252,15 @@ impl CoupledSystem {
         if self.w.ncols() == 0 {
             return;
         }
+        // q = q_c + Z Z^T (q - q_c), qd = Z Z^T qd, in the state's own
+        // storage (a stick does this; the same products as by operators).
         let q_c = self.q_c(targets);
-        state.q = &q_c + &self.z * (&self.z_t * (&state.q - &q_c));
-        state.qd = &self.z * (&self.z_t * &state.qd);
+        state.q -= &q_c;
+        let y = &self.z_t * &state.q;
+        self.z.mul_to(&y, &mut state.q);
+        state.q += &q_c;
+        let yd = &self.z_t * &state.qd;
+        self.z.mul_to(&yd, &mut state.qd);
     }
 }
 
