@@ -148,6 +148,25 @@ impl Component {
     /// A run of the scene from its initial state at `start_time`, with the
     /// inputs (in [`Self::inputs`] order) applied.
     pub fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Run, String> {
+        self.start_run(start_time, inputs).map_err(|m| self.with_variable_names(m))
+    }
+
+    /// A message naming scene fields, with the variable each one is.
+    fn with_variable_names(&self, message: String) -> String {
+        let named: Vec<String> = self
+            .parameters()
+            .iter()
+            .filter(|p| mentions(&message, &p.scene_path))
+            .map(|p| format!("{} is the variable '{}'", p.scene_path, p.name))
+            .collect();
+        if named.is_empty() {
+            message
+        } else {
+            format!("{message} ({})", named.join(", "))
+        }
+    }
+
+    fn start_run(&self, start_time: f64, inputs: &[f64]) -> Result<Run, String> {
         match self {
             Component::Modal(s) => {
                 let model = Model::build(s).map_err(|e| e.0)?;
@@ -196,6 +215,15 @@ impl Component {
             }
         }
     }
+}
+
+/// Whether `text` names the field `path` (not merely a longer one that
+/// starts with it).
+fn mentions(text: &str, path: &str) -> bool {
+    text.match_indices(path).any(|(at, _)| {
+        let next = text[at + path.len()..].chars().next();
+        !next.is_some_and(|c| c.is_alphanumeric() || c == '_')
+    })
 }
 
 /// A simulation of either kind.

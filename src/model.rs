@@ -218,9 +218,13 @@ impl Model {
         for (i, s) in scene.stops.iter().enumerate() {
             let w = shape_at(point(scene, s.x, s.mass));
             if w.norm() < 1e-8 * w.len() as f64 {
+                let field = match (s.x, s.mass) {
+                    (Some(x), _) => format!("stops[{i}].x = {x}"),
+                    (None, Some(m)) => format!("stops[{i}].mass = {m}"),
+                    (None, None) => format!("stops[{i}]"),
+                };
                 return Err(SceneError(format!(
-                    "stops[{i}]: every retained mode has a node at {:?}, the stop cannot act there",
-                    s.at()
+                    "{field}: every retained mode has a node there, so the stop cannot act; move it or keep more modes"
                 )));
             }
             let law: Law = s.law.clone();

@@ -1,103 +1,173 @@
-//! Every parameter of every packaged scene at both ends of its declared
-//! range: the model either refuses the value with a message naming it, or
-//! starts, takes one default communication step and one step a thousand
-//! times the default horizon, and stays sane (finite state, no stop
-//! penetrated beyond rounding, a step that ends at its target or at the
-//! work cap). The FMI-level twin is tests/python/test_range_ends.py; this
-//! one also prints the longest step it saw.
+//! Every parameter and input of every packaged scene at both ends of its
+//! declared range: the value is refused with a message naming it, or the
+//! run starts, takes one default communication step, a step to the
+//! experiment's horizon and (modal kinds) one to a thousand times it, and
+//! stays sane (finite state,
+//! no rigid stop penetrated beyond rounding, a step that ends at its
+//! target or at a work cap, never an error that ends the run). The
+//! FMI-level twin is tests/python/test_robustness.py; this one also
+//! prints the longest step it saw.
 
 use std::time::{Duration, Instant};
 
-use beamstop::interface::parameters;
-use beamstop::{Model, Scene, SimError, Simulation};
+use beamstop::component::{AnyParam, Component, Run};
+use beamstop::scene::Range;
 
-const SCENES: [&str; 5] = ["pinned_beam", "steel_cantilever", "wagg_bishop_chain", "wagg_bishop_cantilever_1mode", "wagg_bishop_cantilever_4mode"];
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
-fn scene(name: &str) -> Scene {
-    let path = format!("{}/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"));
-    Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap()
+fn scenes() -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(format!("{ROOT}/scenes"))
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter_map(|e| e.path().file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    names.sort();
+    names
 }
 
-fn check_sane(sim: &Simulation, what: &str) {
-    let c = sim.current();
-    assert!(c.q.iter().chain(c.qd.iter()).all(|x| x.is_finite()), "{what}: non-finite state");
-    assert!(sim.energy().is_finite(), "{what}: energy {}", sim.energy());
-    for s in &sim.model().stops {
-        let y = s.geometry.w.dot(&c.q);
-        let scale = s.geometry.gap.abs() + s.geometry.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-        let penetration = s.geometry.side * (y - s.geometry.target());
-        assert!(penetration <= 1e-9 * scale.max(1e-300), "{what}: stop '{}' penetrated by {penetration:e}", s.name);
+fn component(name: &str) -> Component {
+    Component::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes/{name}.json")).unwrap()).unwrap()
+}
+
+fn check_sane(run: &Run, what: &str) {
+    match run {
+        Run::Modal(sim) => {
+            let c = sim.current();
+            assert!(c.q.iter().chain(c.qd.iter()).all(|x| x.is_finite()), "{what}: non-finite state");
+            assert!(sim.energy().is_finite(), "{what}: energy {}", sim.energy());
+            for s in sim.model().stops.iter().filter(|s| s.law.is_rigid()) {
+                let y = s.geometry.w.dot(&c.q);
+                let scale = s.geometry.gap.abs() + s.geometry.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+                let penetration = s.geometry.side * (y - s.geometry.target());
+                assert!(penetration <= 1e-9 * scale.max(1e-300), "{what}: stop '{}' penetrated by {penetration:e}", s.name);
+            }
+        }
+        Run::Rotating(sim) => {
+            assert!(sim.y().iter().all(|x| x.is_finite()), "{what}: non-finite state");
+            assert!(sim.total_energy().is_finite(), "{what}: energy {}", sim.total_energy());
+        }
     }
+}
+
+/// The ends of a range, nudged inside where it is open.
+fn ends(range: &Range) -> [f64; 2] {
+    let lo = if range.min_open { range.min.next_up() } else { range.min };
+    let hi = if range.max_open { range.max.next_down() } else { range.max };
+    [lo, hi]
+}
+
+/// What one value did: refused (with the message), or ran.
+enum Outcome {
+    Refused,
+    Ran(Duration, String),
+}
+
+/// One value of one parameter (or input): starts, two steps.
+fn try_value(name: &str, scene: &Component, inputs: &[f64], what: &str, field: &[&str]) -> Result<Outcome, String> {
+    let names_field = |m: &str| field.iter().any(|f| m.contains(f));
+    if let Err(m) = scene.validate() {
+        if !names_field(&m) {
+            return Err(format!("{what}: refused by the scene without naming it: {m}"));
+        }
+        return Ok(Outcome::Refused);
+    }
+    let experiment = scene.experiment();
+    let start = experiment.start;
+    let mut run = match scene.start(start, inputs) {
+        Ok(run) => run,
+        Err(m) => {
+            if !names_field(&m) {
+                return Err(format!("{what}: refused at the start without naming it: {m}"));
+            }
+            return Ok(Outcome::Refused);
+        }
+    };
+    let mut longest = (Duration::ZERO, String::new());
+    // A default step, the horizon, and for the modal kinds (exact and
+    // linear between events at any amplitude) a thousand horizons; the
+    // rotating hub spins up without bound under a held torque, so its
+    // test ends at the horizon.
+    let horizon = experiment.stop - start;
+    let mut targets = vec![start + experiment.step, start + horizon];
+    if matches!(run, Run::Modal(_)) {
+        targets.push(start + 1e3 * horizon);
+    }
+    for target in targets {
+        let t1 = Instant::now();
+        match run.advance_to(target) {
+            Ok(()) => assert_eq!(run.time(), target, "{what}"),
+            Err(e) if e.recoverable => assert!(run.time() <= target, "{what}"),
+            Err(e) => return Err(format!("{what}, step to {target}: the run ends: {}", e.message)),
+        }
+        let took = t1.elapsed();
+        if took > longest.0 {
+            longest = (took, format!("{what}, step to {target}"));
+        }
+        check_sane(&run, what);
+    }
+    let _ = name;
+    Ok(Outcome::Ran(longest.0, longest.1))
 }
 
 /// One scene: (ends tried, refused, longest step and where).
-fn scene_ends(name: &str) -> (usize, usize, (Duration, String)) {
-    let mut longest = (Duration::ZERO, String::new());
+fn scene_ends(name: &str) -> (usize, usize, (Duration, String), Vec<String>) {
+    let base = component(name);
+    let n_inputs = base.inputs().len();
     let mut tried = 0;
     let mut refused = 0;
-    let base = scene(name);
-    for p in parameters(&base) {
-        for value in [p.range.min, p.range.max] {
-            let value = if p.range.min_open && value == p.range.min {
-                value.next_up()
-            } else if p.range.max_open && value == p.range.max {
-                value.next_down()
-            } else {
-                value
-            };
-            let what = format!("{name}: {} = {value:e}", p.name);
-            assert!(value.is_finite(), "{what}: the declared range is not finite");
-            let mut s = base.clone();
-            p.key.set(&mut s, value);
-            tried += 1;
-            let model = match Model::build(&s) {
-                Ok(m) => m,
-                Err(e) => {
-                    // A value that cannot form a model is refused with its name.
-                    assert!(e.0.contains(&p.scene_path) || e.0.contains("cannot act"), "{what}: {}", e.0);
-                    refused += 1;
-                    continue;
+    let mut longest = (Duration::ZERO, String::new());
+    let mut failures = Vec::new();
+    let mut tally = |outcome: Result<Outcome, String>| {
+        tried += 1;
+        match outcome {
+            Err(m) => failures.push(m),
+            Ok(Outcome::Refused) => refused += 1,
+            Ok(Outcome::Ran(d, w)) => {
+                if d > longest.0 {
+                    longest = (d, w);
                 }
-            };
-            let start = s.experiment.start;
-            let mut sim = match Simulation::new(model, start) {
-                Ok(sim) => sim,
-                Err(SimError::Penetration { .. }) => {
-                    refused += 1;
-                    continue;
-                }
-                Err(e) => panic!("{what}: start: {e}"),
-            };
-            for target in [start + s.experiment.step, start + 1e3 * (s.experiment.stop - start)] {
-                let t1 = Instant::now();
-                match sim.advance_to(target) {
-                    Ok(()) => assert_eq!(sim.time(), target),
-                    Err(SimError::TooMuchWork { time, .. } | SimError::TooManyEvents { time, .. }) => {
-                        assert!(time <= target && time == sim.time(), "{what}");
-                    }
-                    Err(e) => panic!("{what}: {e}"),
-                }
-                let took = t1.elapsed();
-                if took > longest.0 {
-                    longest = (took, format!("{what}, step to {target}"));
-                }
-                check_sane(&sim, &what);
             }
         }
+    };
+    for p in base.parameters() {
+        for value in ends(&p.range) {
+            let what = format!("{name}: {} = {value:e}", p.name);
+            if !value.is_finite() {
+                tally(Err(format!("{what}: the declared range [{}, {}] is not finite", p.range.min, p.range.max)));
+                continue;
+            }
+            let mut scene = base.clone();
+            let key: AnyParam = p.key;
+            scene.set(key, value);
+            tally(try_value(name, &scene, &vec![0.0; n_inputs], &what, &[&p.name, &p.scene_path]));
+        }
     }
-    (tried, refused, longest)
+    for (i, input) in base.inputs().iter().enumerate() {
+        for value in ends(&input.range) {
+            let what = format!("{name}: input {} = {value:e}", input.name);
+            if !value.is_finite() {
+                tally(Err(format!("{what}: the declared range is not finite")));
+                continue;
+            }
+            let mut inputs = vec![0.0; n_inputs];
+            inputs[i] = value;
+            tally(try_value(name, &base, &inputs, &what, &[&input.name]));
+        }
+    }
+    (tried, refused, longest, failures)
 }
 
 #[test]
-fn every_parameter_at_both_ends_of_its_range() {
+fn every_parameter_and_input_at_both_ends_of_its_range() {
     // Two threads (the CI machine's cores); each step is timed on its own.
+    let names = scenes();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results: Vec<_> = std::thread::scope(|s| {
         let workers: Vec<_> = (0..2)
             .map(|_| {
                 s.spawn(|| {
                     let mut mine = Vec::new();
-                    while let Some(name) = SCENES.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed)) {
+                    while let Some(name) = names.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed)) {
                         mine.push(scene_ends(name));
                     }
                     mine
@@ -109,6 +179,11 @@ fn every_parameter_at_both_ends_of_its_range() {
     let tried: usize = results.iter().map(|r| r.0).sum();
     let refused: usize = results.iter().map(|r| r.1).sum();
     let longest = results.iter().map(|r| r.2.clone()).max_by_key(|l| l.0).unwrap();
+    let failures: Vec<&String> = results.iter().flat_map(|r| &r.3).collect();
+    for f in &failures {
+        println!("FAIL {f}");
+    }
     println!("{tried} range ends, {refused} refused at build or start; longest step {:?} ({})", longest.0, longest.1);
+    assert!(failures.is_empty(), "{} of {tried} range ends fail", failures.len());
     assert!(longest.0 < Duration::from_secs(10), "longest step {:?}: {}", longest.0, longest.1);
 }

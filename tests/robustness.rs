@@ -143,6 +143,7 @@ fn restored_states_are_validated() {
             s.anchor = s.current.clone();
             s.anchor_time = s.time;
             s.scan = s.time;
+            s.probed = s.time;
         },
         "pressed into it",
     );
@@ -155,6 +156,7 @@ fn restored_states_are_validated() {
             s.anchor = s.current.clone();
             s.anchor_time = s.time;
             s.scan = s.time;
+            s.probed = s.time;
         },
         "penetrated",
     );
@@ -167,6 +169,7 @@ fn restored_states_are_validated() {
     st.anchor = st.current.clone();
     st.anchor_time = st.time;
     st.scan = st.time;
+    st.probed = st.time;
     let m = Simulation::restore_checked(free.model().clone(), free.inputs().to_vec(), st).unwrap_err();
     assert!(m.contains("stuck to stop"), "{m}");
     // A current state off the motion its anchor gives.

@@ -255,6 +255,27 @@ impl Law {
         }
     }
 
+    /// The value of a watched function (any but a held stop's reaction,
+    /// which only the constrained phase knows) at penetration `p` and rate
+    /// `pd`, with its derivatives by `p` and `pd`: `(h, dh/dp, dh/dpd)`.
+    pub fn watched(&self, watch: Watch, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        let force = || match self {
+            Law::SpringDashpot(l) => (l.k * p + l.c * pd, l.k, l.c),
+            Law::Hertz(l) => l.raw_force(p, pd, onset_speed),
+            Law::Restitution(_) => unreachable!("a rigid stop watches no force"),
+        };
+        match watch {
+            Watch::Gap => (-p, -1.0, 0.0),
+            Watch::Penetration => (p, 1.0, 0.0),
+            Watch::Force => force(),
+            Watch::NegatedForce => {
+                let (f, dp, dpd) = force();
+                (-f, -dp, -dpd)
+            }
+            Watch::Reaction => unreachable!("a held stop's reaction is the phase's"),
+        }
+    }
+
     /// The contact states this law has.
     pub fn states(&self) -> &'static [Contact] {
         match self {

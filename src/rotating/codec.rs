@@ -122,13 +122,32 @@ impl RotatingSimulation {
         let level = 1e-9 * model.tip_radius();
         for (what, t, y) in [("anchor", anchor_time, &anchor), ("current state", time, &current)] {
             let (z, zd) = phase.coords(t, y);
-            let gamma = phase.contact_point(&z, &zd).penetration;
+            let point = phase.contact_point(&z, &zd);
+            let gamma = point.penetration;
             let agrees = match contact {
                 ContactState::Open => gamma <= level,
                 ContactState::Pressed | ContactState::Penetrated => gamma >= -level,
             };
             if !agrees {
                 return Err(bad(format!("rotating state: {contact:?} with penetration {gamma:e} at the {what} (allowed level {level:e})")));
+            }
+            // In contact, the law's force agrees with the state: pressed
+            // while it pushes, penetrated while it would pull.
+            if let (Some(s), true) = (&model.surface, contact != ContactState::Open) {
+                let (raw, dp, dpd) = s.law.raw_force(gamma.max(0.0), point.rate, onset_speed);
+                let force_level = dp.abs() * level + dpd.abs() * 1e-9 * point.rate.abs().max(f64::MIN_POSITIVE) + 1e-12 * raw.abs();
+                let pushes = match contact {
+                    ContactState::Pressed => raw >= -force_level,
+                    _ => raw <= force_level,
+                };
+                if !pushes {
+                    return Err(bad(format!(
+                        "rotating state: {contact:?} at the {what}, but the contact law's force there is {raw:e} N \
+                         (penetration {gamma:e} m, rate {:e} m/s): {}",
+                        point.rate,
+                        if contact == ContactState::Pressed { "a pressed contact pushes" } else { "a penetrated contact's law would push" }
+                    )));
+                }
             }
         }
         let mut probe = phase.clone();

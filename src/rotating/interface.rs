@@ -155,7 +155,7 @@ pub fn parameters(spec: &RotatingSpec) -> Vec<Parameter<RotatingParam>> {
                 "surface.law.C",
                 "Linear contact damping C: force K gamma^1.5 + C gamma', never pulling (seed 004 eq. 2)".into(),
                 Unit::NewtonSecondPerMetre,
-                Range::NON_NEGATIVE,
+                spec.damping_range(),
             ),
             damping => push(
                 RotatingParam::SurfaceDamping,

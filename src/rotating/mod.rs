@@ -52,6 +52,10 @@ pub enum RotatingError {
     TooMuchWork { time: f64, steps: u64 },
     /// A serialized state is refused (the message names the field).
     Decode(String),
+    /// The initial state puts the tip deeper into the surface than a run
+    /// may start (`limit`: the depth whose stored energy is the beam's
+    /// kinetic energy at the speed limit).
+    InitialPenetration { penetration: f64, limit: f64 },
 }
 
 impl fmt::Display for RotatingError {
@@ -69,6 +73,12 @@ impl fmt::Display for RotatingError {
             RotatingError::TooManyEvents { time, count } => {
                 write!(f, "{count} contact switches within one step near t = {time}: raise solver.max_events_per_step")
             }
+            RotatingError::InitialPenetration { penetration, limit } => write!(
+                f,
+                "the initial hub angle initial.theta puts the tip {penetration:e} m into the surface, deeper than a run may \
+                 start ({limit:e} m: the depth whose stored energy 2/5 K gamma^2.5 equals the beam's kinetic energy at the \
+                 speed limit); start with the tip outside the surface or on it"
+            ),
             RotatingError::TooMuchWork { time, steps } => write!(
                 f,
                 "{steps} integration steps within one communication step, stopped at t = {time}: take shorter \

@@ -197,6 +197,11 @@ impl RotatingSimulation {
         if let Some(s) = &model.surface {
             let (z, zd) = sim.phase.coords(start_time, &y);
             let c = sim.phase.contact_point(&z, &zd);
+            let speed = model.spec.speed_range().max;
+            let limit = (1.25 * model.spec.beam_inertia() * speed * speed / s.law.stiffness).powf(0.4);
+            if c.penetration > limit {
+                return Err(RotatingError::InitialPenetration { penetration: c.penetration, limit });
+            }
             if c.penetration > 0.0 || (c.penetration == 0.0 && c.rate > 0.0) {
                 sim.phase.onset_speed = c.rate.max(0.0);
                 let raw = s.law.raw_force(c.penetration, c.rate, sim.phase.onset_speed).0;
@@ -236,7 +241,9 @@ impl RotatingSimulation {
                 if let Some(inv) = inv_mass.filter(|x| *x > 0.0 && x.is_finite()) {
                     let mass = 1.0 / inv;
                     let v0 = self.phase.onset_speed.max(c.rate.abs());
-                    let depth = (1.25 * mass * v0 * v0 / s.law.stiffness).powf(0.4);
+                    // No deeper than the tip's radius (a vanishing K would
+                    // give an infinite depth).
+                    let depth = (1.25 * mass * v0 * v0 / s.law.stiffness).powf(0.4).min(ell);
                     let p = c.penetration.max(depth).max(1e-9 * length);
                     let omega_c = (1.5 * s.law.stiffness * p.sqrt() / mass).sqrt();
                     if omega_c > 0.0 && omega_c.is_finite() {

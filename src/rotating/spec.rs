@@ -200,22 +200,36 @@ pub const N_MODES_MAX: usize = 40;
 /// zeroth-order one near 1x; past this, centrifugal stiffening makes the
 /// bending modes too stiff to resolve at the rounding of the angle).
 pub const SPEED_LIMIT_RATIO: f64 = 100.0;
+/// With a surface, hub speeds up to this many times the first bending
+/// frequency: a tip striking at `omega_1 (R + L)` bends the beam by about
+/// its own length, the end of the first-order model (faster strikes
+/// leave it, and its mass matrix loses definiteness).
+pub const IMPACT_SPEED_LIMIT_RATIO: f64 = 1.0;
 /// Hub angles (initial or prescribed start) within +-this, rad: the tip
 /// position keeps a resolution of about 1e-12 of the beam's length.
 pub const ANGLE_LIMIT: f64 = 1e4;
-/// Hub torques up to this many times `J_b omega_1^2` (`J_b` the beam's inertia about its root).
-pub const TORQUE_LIMIT_RATIO: f64 = 1e3;
+/// Hub torques up to this many times `J_b omega_1^2` (`J_b` the beam's
+/// inertia about its root): the hub's angular acceleration is then at most
+/// `0.1 omega_1^2` whatever `J_h`, which deflects the tip statically by
+/// `(11/120) mu alpha L^5 / EI = 1.13 alpha L / omega_1^2`, about a tenth
+/// of the beam's length (the first-order model's own scale).
+pub const TORQUE_LIMIT_RATIO: f64 = 0.1;
 /// Hub inertia, hub radius and gravity up to these multiples of the
 /// beam's inertia about its root, its length and 9.81 m/s^2.
 pub const HUB_INERTIA_MAX_RATIO: f64 = 1e12;
 pub const HUB_RADIUS_MAX_RATIO: f64 = 1e3;
 pub const GRAVITY_MAX: f64 = 9.81e3;
-/// Spin-up durations from this fraction of the first bending period.
+/// Spin-up durations from this fraction of the first bending period up to
+/// this many periods (beyond, the profile's `(2 pi / T)^2` underflows long
+/// before any motion shows).
 pub const SPIN_DURATION_MIN_RATIO: f64 = 1e-3;
+pub const SPIN_DURATION_MAX_RATIO: f64 = 1e6;
+/// Surface damping up to the critical damping of the beam's whole mass on
+/// the highest mode's frequency, times this (as the modal stops).
+pub const DAMPING_MAX_RATIO: f64 = 1e3;
 pub const TOLERANCE_RANGE: Range = Range { min: 1e-13, max: 1e-3, min_open: false, max_open: false };
 pub const STIFFNESS_RANGE: Range = Range { min: 0.0, max: 1e16, min_open: true, max_open: false };
 const POSITIVE: Range = Range::POSITIVE;
-const NON_NEGATIVE: Range = Range::NON_NEGATIVE;
 const ANY: Range = Range::ANY;
 
 impl RotatingSpec {
@@ -270,8 +284,19 @@ impl RotatingSpec {
 
     /// Allowed initial hub speeds and spin-up rates.
     pub fn speed_range(&self) -> Range {
-        let w = SPEED_LIMIT_RATIO * self.first_bending_frequency();
+        let ratio = if self.surface.is_some() { IMPACT_SPEED_LIMIT_RATIO } else { SPEED_LIMIT_RATIO };
+        let w = ratio * self.first_bending_frequency();
         Range::closed(-w, w)
+    }
+
+    /// Allowed linear surface damping `C`: up to `DAMPING_MAX_RATIO` times
+    /// the critical damping `2 m omega` of the beam's mass `mu L` on the
+    /// frequency `((N + 1) pi)^2 sqrt(EI / (mu L^4))` above its highest mode.
+    pub fn damping_range(&self) -> Range {
+        let (mu, ei) = self.section();
+        let l = self.beam.length;
+        let omega_high = ((self.n_modes as f64 + 1.0) * std::f64::consts::PI).powi(2) * (ei / (mu * l.powi(4))).sqrt();
+        Range::closed(0.0, 2.0 * DAMPING_MAX_RATIO * mu * l * omega_high)
     }
 
     pub fn angle_range(&self) -> Range {
@@ -286,7 +311,8 @@ impl RotatingSpec {
 
     /// Allowed spin-up durations.
     pub fn spin_duration_range(&self) -> Range {
-        Range::closed(SPIN_DURATION_MIN_RATIO * std::f64::consts::TAU / self.first_bending_frequency(), f64::INFINITY)
+        let period = std::f64::consts::TAU / self.first_bending_frequency();
+        Range::closed(SPIN_DURATION_MIN_RATIO * period, SPIN_DURATION_MAX_RATIO * period)
     }
 
     /// Checks every field; the message names the field, its value and the allowed range.
@@ -348,7 +374,7 @@ impl RotatingSpec {
             let h = s.law.hertz();
             check(STIFFNESS_RANGE, "surface.law.K", h.stiffness)?;
             match h.damping {
-                HertzDamping::Linear => check(NON_NEGATIVE, "surface.law.C", h.damping_coefficient)?,
+                HertzDamping::Linear => check(self.damping_range(), "surface.law.C", h.damping_coefficient)?,
                 _ => {
                     check(Range::UNIT, "surface.law.e", h.restitution)?;
                     if h.damping_coefficient != 0.0 {

@@ -14,13 +14,14 @@ use crate::solve::functional::NOISE;
 use crate::solve::ModalState;
 
 use super::{EnergyBalance, Frozen, SimState, Simulation, StopState};
-use crate::contact::Contact;
+use crate::contact::{Contact, Watch};
 
 /// Version of the encoding below; bump on any change.
 /// 2: per-stop contact states (compliant stops), impulses, dissipation.
 /// 3: per-stop approach speed at the latest onset (Hertz damping).
 /// 4: per-stop stick onsets, time stuck and the current hold's start.
-pub const STATE_VERSION: u32 = 4;
+/// 5: per-stop departing flags at the anchor, the search's last point.
+pub const STATE_VERSION: u32 = 5;
 
 impl Simulation {
     /// Appends the state (not the model or the inputs: the caller stores
@@ -34,10 +35,11 @@ impl Simulation {
         w.f64(st.anchor_time);
         w.modal(&st.anchor);
         w.f64(st.scan);
+        w.f64(st.probed);
         w.f64(st.accounted);
         for stop in &st.stops {
             w.u8(stop.contact.code());
-            w.u8(stop.departing[0] as u8 | (stop.departing[1] as u8) << 1);
+            w.u8(stop.departing[0] as u8 | (stop.departing[1] as u8) << 1 | (stop.anchor_departing[0] as u8) << 2 | (stop.anchor_departing[1] as u8) << 3);
             w.u64(stop.impacts);
             w.f64(stop.last_impact);
             w.opt_f64(stop.previous_impact);
@@ -89,18 +91,20 @@ impl Simulation {
         let anchor_time = r.f64()?;
         let anchor = r.modal(n)?;
         let scan = r.f64()?;
+        let probed = r.f64()?;
         let accounted = r.f64()?;
         let stops = (0..n_stops)
             .map(|i| {
                 let code = r.u8()?;
                 let contact = Contact::from_code(code).ok_or_else(|| format!("simulation state: stops[{i}] contact state code {code} is not one of 0..=3"))?;
                 let flags = r.u8()?;
-                if flags > 3 {
-                    return Err(format!("simulation state: stops[{i}] departing flags {flags:#x} are not within 0..=3"));
+                if flags > 15 {
+                    return Err(format!("simulation state: stops[{i}] departing flags {flags:#x} are not within 0..=15"));
                 }
                 Ok(StopState {
                     contact,
                     departing: [flags & 1 != 0, flags & 2 != 0],
+                    anchor_departing: [flags & 4 != 0, flags & 8 != 0],
                     impacts: r.u64()?,
                     last_impact: r.f64()?,
                     previous_impact: r.opt_f64()?,
@@ -139,7 +143,7 @@ impl Simulation {
         if balance.is_some() != model.energy_balance {
             return Err("simulation state and model disagree on the energy balance".into());
         }
-        let state = SimState { time, anchor_time, anchor, scan, stops, accounted, current, balance, frozen };
+        let state = SimState { time, anchor_time, anchor, scan, probed, stops, accounted, current, balance, frozen };
         Simulation::restore_checked(model, inputs, state)
     }
 
@@ -196,8 +200,10 @@ fn check_contacts(st: &SimState, model: &Model) -> Result<(), String> {
         if !m.law.states().contains(&s.contact) {
             return Err(format!("simulation state: stop '{}' is {:?}, a state its law does not have", m.name, s.contact));
         }
-        if s.departing[1] && m.law.watches(s.contact).len() < 2 {
-            return Err(format!("simulation state: stop '{}' departing flag 2 set, but it watches one function when {:?}", m.name, s.contact));
+        for (what, flags) in [("departing", s.departing), ("anchor departing", s.anchor_departing)] {
+            if flags[1] && m.law.watches(s.contact).len() < 2 {
+                return Err(format!("simulation state: stop '{}' {what} flag 2 set, but it watches one function when {:?}", m.name, s.contact));
+            }
         }
     }
     Ok(())
@@ -208,12 +214,19 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
     finite("time", st.time)?;
     finite("anchor time", st.anchor_time)?;
     finite("search position", st.scan)?;
+    finite("last search point", st.probed)?;
     finite_modal("anchor", &st.anchor)?;
     finite_modal("current", &st.current)?;
     if !(st.anchor_time <= st.time && st.time <= st.scan) {
         return Err(format!(
             "simulation state: times out of order: anchor {} <= time {} <= search position {} must hold",
             st.anchor_time, st.time, st.scan
+        ));
+    }
+    if !(st.anchor_time <= st.probed && st.probed <= st.time) {
+        return Err(format!(
+            "simulation state: last search point {} outside [anchor {}, time {}]",
+            st.probed, st.anchor_time, st.time
         ));
     }
     finite("accounted time", st.accounted)?;
@@ -278,70 +291,57 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
     Ok(())
 }
 
-/// The state agrees with the stops and with its own segment.
+/// The state agrees with the stops and with its own segment: every stop
+/// is where its contact state says (apart: not inside; in contact:
+/// inside), every function its contact state watches is non-negative (the
+/// state would have switched at its zero), a held stop is on the stop at
+/// rest with a pushing reaction, and every departing flag's function was
+/// on its boundary where the flags were set.
 fn check_geometry(sim: &Simulation) -> Result<(), String> {
     let st = &sim.state;
     let model = &sim.model;
-    let tol = model.event_tolerance;
-    let mut jets = ModalJet::new(model.n_modes());
-    jets.fill_free(&sim.dynamics, st.time, &st.current);
     for (i, stop) in model.stops.iter().enumerate() {
-        let g = &sim.gap_functionals[i];
-        let jet = jets.functional(g, st.time);
-        let geo = &sim.geometries[i];
-        let size = geo.gap.abs() + geo.w.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-        let vsize = geo.w.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
-        let level = (NOISE * size).max(tol);
         let name = &stop.name;
-        let contact = st.stops[i].contact;
-        if let Some(h) = stop.law.force_functional(geo) {
-            let p = -jet.d[0];
-            let force = h.value(&st.current, &nalgebra::DVector::zeros(model.n_modes()));
-            let force_level = NOISE * (h.offset.abs() + h.q.iter().zip(st.current.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>())
-                + h.q.amax() * level
-                + h.qd.as_ref().map_or(0.0, |b| NOISE * b.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>());
-            let bad = match contact {
-                Contact::Open => p > level,
-                Contact::Pressed => force < -force_level,
-                Contact::Penetrated => p < -level || force > force_level,
-                Contact::Held => true,
-            };
-            if bad {
-                return Err(format!(
-                    "simulation state: stop '{name}' is {contact:?} with penetration {p:e} and force {force:e} (rounding level {level:e})"
-                ));
-            }
-            continue;
-        }
-        if stop.law.is_nonlinear() {
-            // The contact state must agree with the penetration.
-            let p = -jet.d[0];
-            let bad = match contact {
-                Contact::Open => p > level,
-                Contact::Pressed | Contact::Penetrated => p < -level,
-                Contact::Held => true,
-            };
-            if bad {
-                return Err(format!("simulation state: stop '{name}' is {contact:?} with penetration {p:e} (rounding level {level:e})"));
-            }
-            continue;
-        }
-        if jet.d[0] < -level {
-            return Err(format!("simulation state: stop '{name}' is penetrated by {:e} (allowed {level:e})", -jet.d[0]));
-        }
+        let counters = &st.stops[i];
+        let contact = counters.contact;
+        let at = WatchValues::new(sim, i, &st.current);
         if contact == Contact::Held {
-            if jet.d[0].abs() > level || jet.d[1].abs() > NOISE * vsize.max(f64::MIN_POSITIVE) * 1e3 {
+            if at.p.abs() > at.level_p || at.pd.abs() > 1e3 * at.level_v {
                 return Err(format!(
                     "simulation state: stuck to stop '{name}' but {:e} away from it moving at {:e} along it",
-                    jet.d[0], jet.d[1]
+                    -at.p, -at.pd
                 ));
             }
-            let pushes = -geo.side * sim.reaction(i);
+            let pushes = -sim.geometries[i].side * sim.reaction(i);
             if pushes < -1e-9 * (1.0 + pushes.abs()) {
                 return Err(format!("simulation state: stuck to stop '{name}' with a pulling reaction {}", sim.reaction(i)));
             }
-        } else if st.stops[i].departing[0] && jet.d[0] <= level {
+        } else {
+            let outside = match contact {
+                Contact::Open => at.p <= at.level_p,
+                _ => at.p >= -at.level_p,
+            };
+            if !outside {
+                let place = if contact == Contact::Open { "apart from it but penetrated by" } else { "in contact but away from it by" };
+                return Err(format!("simulation state: stop '{name}' is {contact:?}, {place} {:e} (rounding level {:e})", at.p.abs(), at.level_p));
+            }
+            for &watch in stop.law.watches(contact) {
+                let (value, level) = at.watched(watch, 1.0);
+                if value < -level {
+                    return Err(format!(
+                        "simulation state: stop '{name}' is {contact:?}, but its {watch:?} function is {value:e} (rounding level {level:e}): \
+                         the contact state would have switched at its zero"
+                    ));
+                }
+            }
+        }
+        if contact == Contact::Open && counters.departing[0] && at.p.abs() <= at.level_p {
             // On the stop and treated as leaving it: it must not be pressed in.
+            let geo = &sim.geometries[i];
+            let mut jets = ModalJet::new(model.n_modes());
+            jets.fill_free(&sim.dynamics, st.time, &st.current);
+            let jet = jets.functional(&sim.gap_functionals[i], st.time);
+            let vsize = geo.w.iter().zip(st.current.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
             let closing = jet.d[1] < -jet.noise[1].max(NOISE * vsize) || (jet.d[1] <= jet.noise[1] && tendency_from(&jet, 2) == Tendency::Closing);
             if closing {
                 return Err(format!(
@@ -351,6 +351,7 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
             }
         }
     }
+    check_departing(sim)?;
     // The current state lies on the segment from the anchor.
     let mut on_segment = ModalState::zeros(model.n_modes());
     sim.state_at(st.time, &mut on_segment);
@@ -363,4 +364,90 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// A relative level far above rounding and far below any real distance
+/// from a boundary: a departing flag's function lies within it.
+const ON_BOUNDARY: f64 = 1e-9;
+
+/// Departing flags are claims that a function was on its boundary: at the
+/// last search point (`departing`) or at the anchor (`anchor_departing`,
+/// which the free segment takes as exactly zero there). The search's
+/// functions are checked where they claim it; an integrated phase tests
+/// signs and never reads the flags.
+fn check_departing(sim: &Simulation) -> Result<(), String> {
+    let st = &sim.state;
+    if matches!(sim.segment, super::Segment::Integrated(_)) {
+        return Ok(());
+    }
+    let free = matches!(sim.segment, super::Segment::Free { .. });
+    let mut at_probe = ModalState::zeros(sim.model.n_modes());
+    sim.state_at(st.probed, &mut at_probe);
+    for (i, stop) in sim.model.stops.iter().enumerate() {
+        let counters = &st.stops[i];
+        let watches = stop.law.watches(counters.contact);
+        for (slot, &watch) in watches.iter().enumerate() {
+            let claims = [
+                (counters.departing[slot], "departing", "last search point", st.probed, &at_probe),
+                (counters.anchor_departing[slot] && free, "anchor departing", "anchor", st.anchor_time, &st.anchor),
+            ];
+            for (claimed, what, point, t, state) in claims {
+                if !claimed {
+                    continue;
+                }
+                let (value, level) = if watch == Watch::Reaction {
+                    let r = -sim.geometries[i].side * sim.reaction_at(i, t, state);
+                    (r, ON_BOUNDARY * (1.0 + r.abs()))
+                } else {
+                    WatchValues::new(sim, i, state).watched(watch, ON_BOUNDARY / NOISE)
+                };
+                if value.abs() > level {
+                    return Err(format!(
+                        "simulation state: stop '{}' {what} flag {} set, but its {watch:?} function is {value:e} at the {point} t = {t}, \
+                         not on its boundary (allowed {level:e})",
+                        stop.name,
+                        slot + 1
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A stop's penetration and rate in a state, with the rounding levels of
+/// each (the terms' sizes).
+struct WatchValues<'a> {
+    law: &'a crate::contact::Law,
+    onset_speed: f64,
+    p: f64,
+    pd: f64,
+    level_p: f64,
+    level_v: f64,
+}
+
+impl<'a> WatchValues<'a> {
+    fn new(sim: &'a Simulation, i: usize, state: &ModalState) -> Self {
+        let geo = &sim.geometries[i];
+        // With mode transfer the active gap is what the frozen shape
+        // leaves of the stop's own: both sizes count.
+        let gaps = geo.gap.abs() + sim.model.stops[i].geometry.gap.abs();
+        let size = gaps + geo.w.iter().zip(state.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        let vsize = geo.w.iter().zip(state.qd.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        WatchValues {
+            law: &sim.model.stops[i].law,
+            onset_speed: sim.state.stops[i].onset_speed,
+            p: geo.penetration(&state.q),
+            pd: geo.penetration_rate(&state.qd),
+            level_p: (NOISE * size).max(sim.model.event_tolerance),
+            level_v: NOISE * vsize.max(f64::MIN_POSITIVE),
+        }
+    }
+
+    /// A watched function's value and its rounding level (times `widen`).
+    fn watched(&self, watch: Watch, widen: f64) -> (f64, f64) {
+        let (value, dp, dpd) = self.law.watched(watch, self.p, self.pd, self.onset_speed);
+        let level = widen * (dp.abs() * self.level_p + dpd.abs() * self.level_v + NOISE * value.abs());
+        (value, level)
+    }
 }

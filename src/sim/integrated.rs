@@ -165,6 +165,7 @@ impl Simulation {
         // period at the larger of the current and a millionth-of-the-gap
         // penetration, nor the structure's shortest period.
         let mut max_step = self.model.shortest_period();
+        let slowest = self.model.oscillators.iter().map(|o| o.omega).fold(f64::INFINITY, f64::min);
         let (mut scale_q, mut scale_v) = (0.0f64, 0.0f64);
         for c in &contacts {
             let g = &c.geometry;
@@ -174,7 +175,10 @@ impl Simulation {
             // penetration of a mass that size arriving at the onset speed,
             // (5 m v0^2 / 4 K)^(2/5), sets the scale of the contact.
             let v0 = c.onset_speed.max(g.penetration_rate(&self.state.anchor.qd).abs());
-            let depth = (1.25 * v0 * v0 / (c.law.stiffness * w2)).powf(0.4);
+            // No deeper than the motion reaches (a vanishing K would give
+            // an infinite depth).
+            let reach = g.gap.abs() + g.w.dot(&self.state.anchor.q).abs() + v0 / slowest;
+            let depth = (1.25 * v0 * v0 / (c.law.stiffness * w2)).powf(0.4).min(reach);
             let p = g.penetration(&self.state.anchor.q).max(depth).max(1e-6 * g.gap.abs());
             let k_lin = 1.5 * c.law.stiffness * p.sqrt();
             let omega_c = (k_lin * w2).sqrt();
@@ -191,7 +195,6 @@ impl Simulation {
         anchor.rows_mut(n, n).copy_from(&self.state.anchor.qd);
         let tol = self.model.integration_tolerance;
         let q_scale = scale_q.max(self.state.anchor.q.amax()).max(f64::MIN_POSITIVE);
-        let slowest = self.model.oscillators.iter().map(|o| o.omega).fold(f64::INFINITY, f64::min);
         let v_scale = (q_scale * slowest).max(scale_v).max(self.state.anchor.qd.amax()).max(f64::MIN_POSITIVE);
         let mut atol = DVector::zeros(dim);
         atol.rows_mut(0, n).fill(tol * q_scale);

@@ -89,7 +89,9 @@ impl Event {
 #[derive(Clone, Debug, PartialEq)]
 pub enum SimError {
     /// The initial state lies beyond a rigid stop.
-    Penetration { stop: String, displacement: f64, limit: f64, side: f64 },
+    /// `fields`: the scene fields that put it there (the stop's gap and
+    /// the initial modal displacements that move the point).
+    Penetration { stop: String, displacement: f64, limit: f64, side: f64, fields: Vec<String> },
     /// More events than allowed inside one call to `advance_to`.
     TooManyEvents { time: f64, count: u64 },
     /// More event-search points than allowed inside one call to
@@ -107,11 +109,12 @@ pub enum SimError {
 impl fmt::Display for SimError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SimError::Penetration { stop, displacement, limit, side } => write!(
+            SimError::Penetration { stop, displacement, limit, side, fields } => write!(
                 f,
                 "the initial state penetrates stop '{stop}': displacement there is {displacement}, allowed {} {limit}; \
-                 change the initial modal coordinates or the gap",
-                if *side > 0.0 { "<=" } else { ">=" }
+                 change the initial modal coordinates or the gap ({})",
+                if *side > 0.0 { "<=" } else { ">=" },
+                fields.join(", ")
             ),
             SimError::TooManyEvents { time, count } => write!(
                 f,
@@ -151,6 +154,9 @@ pub struct StopState {
     /// Per watched function of the contact state: put on its boundary by
     /// the event handling at `scan` and leaving it.
     pub departing: [bool; 2],
+    /// The departing flags when the anchor was set: those functions count
+    /// as exactly 0 at the anchor (the free segment's values there).
+    pub anchor_departing: [bool; 2],
     /// Impacts (rigid) or contact onsets (compliant) since the start.
     pub impacts: u64,
     /// Time of the latest impact or onset (the start time before the first).
@@ -184,6 +190,9 @@ pub struct SimState {
     pub anchor: ModalState,
     /// The event search has proven the segment event-free up to here.
     pub scan: f64,
+    /// The last point the search evaluated or handled events at: where
+    /// every departing flag's function was on its boundary.
+    pub probed: f64,
     /// Contact state and counters of each stop.
     pub stops: Vec<StopState>,
     /// The stops' dissipation covers the run up to here.
@@ -358,22 +367,26 @@ impl Simulation {
     pub fn new(model: Model, start_time: f64) -> Result<Self, SimError> {
         let initial = model.initial.clone();
         let mut stops = Vec::new();
-        for s in &model.stops {
+        for (i, s) in model.stops.iter().enumerate() {
             let g = s.geometry.gap_functional();
             let value = g.offset + g.q.dot(&initial.q);
             let scale = g.offset.abs() + g.q.iter().zip(initial.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
             if s.law.is_rigid() && value < -(crate::solve::functional::NOISE * scale).max(model.event_tolerance) {
+                let mut fields = vec![format!("stops[{i}].gap")];
+                fields.extend((0..model.n_modes()).filter(|&j| initial.q[j] * s.geometry.w[j] != 0.0).map(|j| format!("initial.q[{j}]")));
                 return Err(SimError::Penetration {
                     stop: s.name.clone(),
                     displacement: s.geometry.w.dot(&initial.q),
                     limit: s.geometry.target(),
                     side: s.geometry.side,
+                    fields,
                 });
             }
             let contact = s.law.initial_contact(&s.geometry, &initial).unwrap_or(Contact::Open);
             stops.push(StopState {
                 contact,
                 departing: [false; 2],
+                anchor_departing: [false; 2],
                 impacts: if contact == Contact::Pressed { 1 } else { 0 },
                 last_impact: start_time,
                 previous_impact: None,
@@ -391,6 +404,7 @@ impl Simulation {
             anchor_time: start_time,
             anchor: initial.clone(),
             scan: start_time,
+            probed: start_time,
             stops,
             accounted: start_time,
             frozen: model.transfer.as_ref().map(|_| Frozen { c: DVector::zeros(model.n_modes()), d: DVector::zeros(model.n_modes()) }),
@@ -775,15 +789,25 @@ impl Simulation {
         fastest
     }
 
-    /// Quadrature nodes per unit time of the energy balance (0 without
-    /// it): each costs about what a point of the event search costs, and
-    /// counts against the same cap.
-    fn balance_nodes_per_time(&self) -> f64 {
-        match self.state.balance {
-            // 16-point panels of pi / 2 at twice the fastest frequency.
-            Some(_) => 16.0 * 2.0 * self.fastest_frequency() / (0.5 * std::f64::consts::PI),
+    /// Quadrature nodes per unit time of the energy accounting in the
+    /// current phase (the energy balance, when kept; the dissipation of
+    /// pressed dashpots): each costs about what a point of the event
+    /// search costs, and counts against the same cap.
+    fn accounting_nodes_per_time(&self) -> f64 {
+        // 16-point panels of pi / 2 at twice the fastest frequency.
+        let per_frequency = 16.0 * 2.0 / (0.5 * std::f64::consts::PI);
+        let mut rate = match self.state.balance {
+            Some(_) => per_frequency * self.fastest_frequency(),
             None => 0.0,
+        };
+        if let Segment::Coupled { phase, .. } = &self.segment {
+            let dashpot = (0..self.model.stops.len()).any(|i| self.state.stops[i].contact == Contact::Pressed && self.model.stops[i].law.dashpot().is_some());
+            if dashpot {
+                let fastest = self.dynamics.forcing.harmonics.iter().fold(phase.system.fastest(), |m, h| m.max(h.omega));
+                rate += per_frequency * fastest;
+            }
         }
+        rate
     }
 
     /// The reaction of a stop at the current time (0 unless stuck to it).
@@ -854,12 +878,23 @@ impl Simulation {
             for s in &mut self.state.stops {
                 s.departing = [false; 2];
             }
+            self.state.probed = self.state.time;
         }
         self.state.anchor = self.state.current.clone();
         self.state.anchor_time = self.state.time;
         self.state.scan = self.state.time;
+        self.mark_anchor_departing();
         self.rebuild_segment()?;
         self.advance_to(self.state.time)
+    }
+
+    /// Keeps the departing flags of a new anchor (part of the state: a
+    /// restore rebuilds the segment from them, not from the flags the
+    /// search has cleared since).
+    fn mark_anchor_departing(&mut self) {
+        for s in &mut self.state.stops {
+            s.anchor_departing = s.departing;
+        }
     }
 
     /// Derives the dynamics and the stops' geometry from the model, the
@@ -1198,7 +1233,7 @@ impl Simulation {
             }
         }
         let anchor = &self.state.anchor;
-        let value_at_anchor = |ch: &Channel, h: &Functional| if self.state.stops[ch.stop].departing[ch.slot] { 0.0 } else { h.value_without_load(anchor) };
+        let value_at_anchor = |ch: &Channel, h: &Functional| if self.state.stops[ch.stop].anchor_departing[ch.slot] { 0.0 } else { h.value_without_load(anchor) };
         if let Segment::Free { segment, functions } = &mut self.segment {
             if !channels_changed && functions.len() == self.channels.len() {
                 segment.reset(&self.dynamics, self.state.anchor_time, anchor);
@@ -1389,7 +1424,9 @@ impl Simulation {
     fn scan_to(&mut self, t_end: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> Result<(), SimError> {
         let mut count = 0u64;
         let mut probes = 0u64;
-        let (start, balance_rate) = (self.state.time, self.balance_nodes_per_time());
+        // The accounting's quadrature nodes so far, up to `counted`, at the
+        // current phase's rate.
+        let (mut nodes, mut counted, mut node_rate) = (0.0, self.state.time, self.accounting_nodes_per_time());
         // The budget in points as a float, converted once: u64 to f64 is a
         // dozen instructions on x86-64 (i64 to f64 one), at every probe.
         let budget = self.model.max_probes_per_step as f64;
@@ -1404,6 +1441,13 @@ impl Simulation {
                 }
                 let anchor = self.state.anchor_time;
                 let mut at = at;
+                // The integrated search tests signs, not departures: only
+                // the functions at zero here get their flags (from the
+                // event handling).
+                for s in &mut self.state.stops {
+                    s.departing = [false; 2];
+                }
+                self.state.probed = te;
                 self.handle_events(te, &mut at, &at_zero)?;
                 if self.state.anchor_time == anchor && matches!(self.segment, Segment::Integrated(_)) {
                     // Nothing switched: search on past the zero.
@@ -1416,11 +1460,17 @@ impl Simulation {
                 break;
             }
             probes += 1;
-            let balance_nodes = balance_rate * (l.min(t_end) - start);
-            if probes as i64 as f64 + balance_nodes > budget {
-                self.stop_at(l);
-                return Err(SimError::TooMuchWork { time: l, probes: probes - 1 });
+            let more = node_rate * (l - counted);
+            if probes as i64 as f64 + nodes + more > budget {
+                // Stop where the accounting's nodes exhaust the budget (the
+                // search has certified every point up to l).
+                let room = (budget - probes as i64 as f64 - nodes).max(0.0);
+                let at = if more > room { (counted + room / node_rate).clamp(counted, l) } else { l };
+                self.stop_at(at);
+                return Err(SimError::TooMuchWork { time: at, probes: probes - 1 });
             }
+            nodes += more;
+            counted = l;
             self.stats.probes += 1;
             match self.probe(l, st, buffers) {
                 Probe::Events => {}
@@ -1433,6 +1483,7 @@ impl Simulation {
                         }
                         // Functions leaving their boundary stop departing once clear of noise.
                         self.set_departing(&buffers.keep);
+                        self.state.probed = l;
                         self.state.scan = next;
                         continue;
                     }
@@ -1454,7 +1505,12 @@ impl Simulation {
                 // probe at the event has them at its time.
                 segment.state_at_sample(&phase.system, l, &buffers.coupled, st);
             }
+            // Every flag from this point: the functions at zero get theirs
+            // from the event handling, the others keep what the probe found.
+            self.set_departing(&buffers.keep);
+            self.state.probed = l;
             self.handle_events(l, st, &buffers.at_zero)?;
+            node_rate = self.accounting_nodes_per_time();
             if std::mem::take(&mut self.basis_changed) {
                 *buffers = ProbeBuffers::new(&self.dynamics);
                 *st = ModalState::zeros(self.model.n_modes());
@@ -1737,6 +1793,7 @@ impl Simulation {
         std::mem::swap(&mut self.state.anchor, st);
         self.state.anchor_time = t;
         self.state.scan = t;
+        self.mark_anchor_departing();
         if basis_changed {
             self.refresh_basis();
             self.basis_changed = true;

@@ -172,7 +172,7 @@ def refusal(u, name, value, *words):
 
 
 @pytest.mark.parametrize("name, value, words", [
-    ("J_h", 0.0, ["allowed", "(0, "]), ("J_h", -1.0, ["allowed"]), ("theta_dot0", 1e7, ["allowed", "8775.74"]),
+    ("J_h", 0.0, ["allowed", "(0, "]), ("J_h", -1.0, ["allowed"]), ("theta_dot0", 1e7, ["allowed", "87.757"]),
     ("K", -1.0, ["allowed", "10000000000000000]"]), ("e", 1.5, ["allowed", "[0, 1]"]), ("theta0", float("nan"), ["allowed", "10000"])])
 def test_bad_parameters_are_refused_naming_the_variable_and_range(name, value, words):
     u = Unit(IMPACT)
