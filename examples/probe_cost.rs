@@ -32,7 +32,7 @@ fn main() {
             let result = sim.advance_to(1e6);
             let wall = t0.elapsed().as_secs_f64();
             let (points, reached) = match result {
-                Err(SimError::TooMuchWork { time, probes }) => (probes, time),
+                Err(SimError::TooMuchWork { time, work, .. }) => (work, time),
                 Err(SimError::TooManyEvents { time, count }) => (count, time),
                 Err(e) => panic!("{e}"),
                 Ok(()) => (cap, sim.time()),

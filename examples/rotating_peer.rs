@@ -153,7 +153,10 @@ impl Rot {
             ga: beam.gamma.dot(&a),
             normal: s.plane.normal,
             offset: s.plane.normal[0] * s.plane.point[0] + s.plane.normal[1] * s.plane.point[1],
-            law: s.law.clone(),
+            law: match &s.law {
+                beamstop::contact::Law::Hertz(h) => h.clone(),
+                other => panic!("the peer models a Hertz surface, not {other:?}"),
+            },
             omega_n: beam.omega(n),
             phase: Phase::Open,
             v0: 0.0,
@@ -723,9 +726,10 @@ fn main() {
     if let Some(path) = json_path {
         let spec = scene(1e-10);
         let s = model.surface.as_ref().unwrap();
-        let alpha = match s.law.damping {
-            HertzDamping::LankaraniNikravesh => 0.75 * (1.0 - s.law.restitution * s.law.restitution),
-            HertzDamping::HuntCrossley => 1.5 * (1.0 - s.law.restitution),
+        let beamstop::contact::Law::Hertz(law) = &s.law else { panic!("the peer models a Hertz surface") };
+        let alpha = match law.damping {
+            HertzDamping::LankaraniNikravesh => 0.75 * (1.0 - law.restitution * law.restitution),
+            HertzDamping::HuntCrossley => 1.5 * (1.0 - law.restitution),
             HertzDamping::Linear => 0.0,
         };
         let out = json!({

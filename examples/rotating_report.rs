@@ -206,7 +206,7 @@ fn main() {
     // 3. Rigid beam.
     let model = RotatingModel::new(&seed).unwrap();
     let j = seed.hub_inertia + model.beam.j_b;
-    let law = seed.surface.as_ref().unwrap().law.hertz();
+    let beamstop::contact::Law::Hertz(law) = &seed.surface.as_ref().unwrap().law else { panic!("a Hertz surface") };
     let (rc, rpeak, rdur) = rigid(j, 1.0, law.stiffness, law.restitution, seed.initial.theta_dot, 0.05);
     println!(
         "3. rigid hub + beam (J = {j:.5} kg m^2): {rc} contact(s) in 0.05 s, peak force {rpeak:.3} N, duration {:.3} us; \

@@ -5,9 +5,9 @@
 //! Only what the scene uses appears. The FMI layer turns this list into
 //! scalar variables; nothing here knows about FMI.
 
-use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, SceneError, StopLaw, Units};
-
-pub use crate::units::Unit;
+use crate::contact::StopOutput;
+use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, SceneError, Units};
+pub use crate::variables::{Input, Output, OutputType, Parameter, Unit};
 
 /// A quantity's unit in the scene's unit system (everything is "1" scaled).
 fn unit(scene: &Scene, u: Unit) -> Unit {
@@ -36,100 +36,49 @@ pub enum ParamKey {
     InitialQd(usize),
 }
 
-fn load_fields(load: &mut Load) -> (&mut f64, &mut f64, Option<&mut Option<f64>>) {
-    match load {
-        Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
-            (amplitude, omega, None)
-        }
-        Load::PointHarmonic { amplitude, omega, x, .. } => (amplitude, omega, Some(x)),
-    }
-}
-
 impl ParamKey {
+    /// Where the value sits in the scene file (`stops[0].law.R`); `law` is
+    /// the parameter's key in its law ([`crate::contact::ParamSpec::key`]).
+    pub fn path(&self, scene: &Scene) -> String {
+        match *self {
+            ParamKey::LoadAmplitude(i) => format!("loads[{i}].amplitude"),
+            ParamKey::LoadOmega(i) => format!("loads[{i}].omega"),
+            ParamKey::LoadPosition(i) => format!("loads[{i}].x"),
+            ParamKey::Zeta => "damping.zeta".into(),
+            ParamKey::ZetaMode(j) => format!("damping.zeta_modes[{j}]"),
+            ParamKey::Viscous => "damping.viscous".into(),
+            ParamKey::Law(i, k) => format!("stops[{i}].law.{}", scene.stops[i].law.parameters()[k].key),
+            ParamKey::StopGap(i) => format!("stops[{i}].gap"),
+            ParamKey::StopPosition(i) => format!("stops[{i}].x"),
+            ParamKey::SensorPosition(i) => format!("sensors[{i}].x"),
+            ParamKey::ActuatorPosition(i) => format!("actuators[{i}].x"),
+            ParamKey::InitialQ(j) => format!("initial.q[{j}]"),
+            ParamKey::InitialQd(j) => format!("initial.qd[{j}]"),
+        }
+    }
+
+    /// The value in `scene` (0 where it is implied).
     pub fn get(&self, scene: &Scene) -> f64 {
-        let load = |i: usize| match &scene.loads[i] {
-            Load::DistributedHarmonic { amplitude, omega, .. } | Load::BaseExcitation { amplitude, omega, .. } => {
-                (*amplitude, *omega, None)
-            }
-            Load::PointHarmonic { amplitude, omega, x, .. } => (*amplitude, *omega, *x),
-        };
-        let damping = scene.damping.as_ref();
-        match *self {
-            ParamKey::LoadAmplitude(i) => load(i).0,
-            ParamKey::LoadOmega(i) => load(i).1,
-            ParamKey::LoadPosition(i) => load(i).2.unwrap_or(0.0),
-            ParamKey::Zeta => damping.and_then(|d| d.zeta).unwrap_or(0.0),
-            ParamKey::ZetaMode(j) => damping.and_then(|d| d.zeta_modes.as_ref()).and_then(|z| z.get(j).copied()).unwrap_or(0.0),
-            ParamKey::Viscous => damping.and_then(|d| d.viscous).unwrap_or(0.0),
-            ParamKey::Law(i, k) => scene.stops[i].law.value(k),
-            ParamKey::StopGap(i) => scene.stops[i].gap,
-            ParamKey::StopPosition(i) => scene.stops[i].x.unwrap_or(0.0),
-            ParamKey::SensorPosition(i) => scene.sensors[i].x.unwrap_or(0.0),
-            ParamKey::ActuatorPosition(i) => scene.actuators[i].x.unwrap_or(0.0),
-            ParamKey::InitialQ(j) => scene.initial.q.get(j).copied().unwrap_or(0.0),
-            ParamKey::InitialQd(j) => scene.initial.qd.get(j).copied().unwrap_or(0.0),
-        }
+        let json = serde_json::to_value(scene).expect("a scene always serialises");
+        crate::fields::get(&json, &self.path(scene)).expect("a parameter's path holds a number")
     }
 
+    /// Sets the value in `scene` (creating what it implies).
     pub fn set(&self, scene: &mut Scene, value: f64) {
-        *self.slot(scene) = value;
-    }
-
-    /// The value's place in the scene (creating defaults where it is implied).
-    fn slot<'a>(&self, scene: &'a mut Scene) -> &'a mut f64 {
-        let n = scene.n_modes();
-        match *self {
-            ParamKey::LoadAmplitude(i) => load_fields(&mut scene.loads[i]).0,
-            ParamKey::LoadOmega(i) => load_fields(&mut scene.loads[i]).1,
-            ParamKey::LoadPosition(i) => load_fields(&mut scene.loads[i]).2.expect("point load").get_or_insert(0.0),
-            ParamKey::Zeta => scene.damping.get_or_insert_with(Default::default).zeta.get_or_insert(0.0),
-            ParamKey::ZetaMode(j) => &mut scene.damping.get_or_insert_with(Default::default).zeta_modes.get_or_insert_with(Vec::new)[j],
-            ParamKey::Viscous => scene.damping.get_or_insert_with(Default::default).viscous.get_or_insert(0.0),
-            ParamKey::Law(i, k) => scene.stops[i].law.value_mut(k),
-            ParamKey::StopGap(i) => &mut scene.stops[i].gap,
-            ParamKey::StopPosition(i) => scene.stops[i].x.get_or_insert(0.0),
-            ParamKey::SensorPosition(i) => scene.sensors[i].x.get_or_insert(0.0),
-            ParamKey::ActuatorPosition(i) => scene.actuators[i].x.get_or_insert(0.0),
-            ParamKey::InitialQ(j) => {
-                scene.initial.q.resize(n.max(scene.initial.q.len()), 0.0);
-                &mut scene.initial.q[j]
-            }
-            ParamKey::InitialQd(j) => {
-                scene.initial.qd.resize(n.max(scene.initial.qd.len()), 0.0);
-                &mut scene.initial.qd[j]
-            }
-        }
+        let path = self.path(scene);
+        scene.set_field(&path, value).expect("a number at a parameter's path keeps the scene readable");
     }
 }
 
-/// A parameter of a scene; `K` says where its value lives (the modal
-/// scene's [`ParamKey`] by default).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Parameter<K = ParamKey> {
-    pub key: K,
-    pub name: String,
-    /// Where the value sits in the scene file, for error messages.
-    pub scene_path: String,
-    pub description: String,
-    pub unit: Unit,
-    pub range: Range,
-    /// May change between communication steps; otherwise fixed after
-    /// initialisation.
-    pub tunable: bool,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum InputKey {
-    Actuator(usize),
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Input<K = InputKey> {
-    pub key: K,
-    pub name: String,
-    pub description: String,
-    pub unit: Unit,
-    pub range: Range,
+impl Scene {
+    /// Sets the number at a scene path (`stops[0].law.R`), creating what
+    /// it implies ([`crate::fields::set`]); not validated.
+    pub fn set_field(&mut self, path: &str, value: f64) -> Result<(), String> {
+        let mut json = serde_json::to_value(&*self).expect("a scene always serialises");
+        crate::fields::set(&mut json, path, value)?;
+        *self = serde_json::from_value(json).map_err(|e| format!("{path} = {value}: {e}"))?;
+        Ok(())
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -157,46 +106,6 @@ pub enum OutputKey {
     ForcingEnergy(usize),
     DampingEnergy(usize),
     ImpactEnergy,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OutputType {
-    Real,
-    Integer,
-    Boolean,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Output<K = OutputKey> {
-    pub key: K,
-    pub name: String,
-    pub description: String,
-    pub unit: Unit,
-    pub kind: OutputType,
-    /// Changes only at events.
-    pub discrete: bool,
-}
-
-impl<K> Parameter<K> {
-    /// The same parameter with its key wrapped (for a table of several scene kinds).
-    pub fn map_key<L>(self, f: impl FnOnce(K) -> L) -> Parameter<L> {
-        let Parameter { key, name, scene_path, description, unit, range, tunable } = self;
-        Parameter { key: f(key), name, scene_path, description, unit, range, tunable }
-    }
-}
-
-impl<K> Input<K> {
-    pub fn map_key<L>(self, f: impl FnOnce(K) -> L) -> Input<L> {
-        let Input { key, name, description, unit, range } = self;
-        Input { key: f(key), name, description, unit, range }
-    }
-}
-
-impl<K> Output<K> {
-    pub fn map_key<L>(self, f: impl FnOnce(K) -> L) -> Output<L> {
-        let Output { key, name, description, unit, kind, discrete } = self;
-        Output { key: f(key), name, description, unit, kind, discrete }
-    }
 }
 
 /// A variable's name: the element's rename if it has one, else `prefix.key`.
@@ -369,8 +278,9 @@ impl Limits {
 pub fn parameters(scene: &Scene) -> Vec<Parameter> {
     let limits = Limits::of(scene);
     let mut out = Vec::new();
-    let mut push = |key, name, scene_path: String, description: String, u, range, tunable| {
-        out.push(Parameter { key, name, scene_path, description, unit: unit(scene, u), range, tunable });
+    let mut push = |key: ParamKey, name, scene_path: String, description: String, u, range, tunable| {
+        debug_assert_eq!(scene_path, key.path(scene));
+        out.push(Parameter { name, scene_path, description, unit: unit(scene, u), range, tunable });
     };
     let beam = scene.is_beam();
     for (i, load) in scene.loads.iter().enumerate() {
@@ -446,7 +356,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
         let (n, s) = (&stop.names, &stop.name);
         // Under mode transfer the contact basis is built from the stop's
         // parameters: they are fixed for the run.
-        let transfer = matches!(&stop.law, StopLaw::SpringDashpot(l) if !l.method.is_fim());
+        let transfer = stop.law.mode_transfer().is_some();
         for (k, spec) in stop.law.parameters().iter().enumerate() {
             push(
                 ParamKey::Law(i, k),
@@ -504,8 +414,7 @@ pub fn inputs(scene: &Scene) -> Vec<Input> {
     scene
         .actuators
         .iter()
-        .enumerate()
-        .map(|(i, a)| {
+        .map(|a| {
             let (description, u, range) = match a.kind {
                 ActuatorKind::Force => (
                     format!("Point force '{}' (positive along +w), held constant over each communication step", a.name),
@@ -518,75 +427,40 @@ pub fn inputs(scene: &Scene) -> Vec<Input> {
                     limits.acceleration_range(),
                 ),
             };
-            Input { key: InputKey::Actuator(i), name: named(&a.names, "", &a.name), description, unit: unit(scene, u), range }
+            Input { name: named(&a.names, "", &a.name), description, unit: unit(scene, u), range }
         })
         .collect()
 }
 
-pub fn outputs(scene: &Scene) -> Vec<Output> {
+/// Every output of the scene, with what it reads.
+pub fn outputs(scene: &Scene) -> Vec<(OutputKey, Output)> {
     let mut out = Vec::new();
     let mut push = |key, name, description: String, u, kind, discrete| {
-        out.push(Output { key, name, description, unit: unit(scene, u), kind, discrete });
+        out.push((key, Output { name, description, unit: unit(scene, u), kind, discrete }));
     };
     let real = OutputType::Real;
     for (i, stop) in scene.stops.iter().enumerate() {
         let (n, s) = (&stop.names, &stop.name);
         push(OutputKey::StopDisplacement(i), named(n, s, "w"), format!("Displacement at stop '{s}'"), Unit::Metre, real, false);
         push(OutputKey::StopVelocity(i), named(n, s, "v"), format!("Velocity at stop '{s}'"), Unit::MetrePerSecond, real, false);
-        match stop.law {
-            StopLaw::Restitution(_) => {
-                push(OutputKey::StopImpacts(i), named(n, s, "impacts"), format!("Number of impacts at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
-                push(
-                    OutputKey::StopLastImpact(i),
-                    named(n, s, "t_last_impact"),
-                    format!("Exact time of the latest impact at stop '{s}' (the start time before the first)"),
-                    Unit::Second,
-                    real,
-                    true,
-                );
-                push(OutputKey::StopSticking(i), named(n, s, "sticking"), format!("Whether the structure is stuck to stop '{s}'"), Unit::One, OutputType::Boolean, true);
-                push(OutputKey::StopSticks(i), named(n, s, "sticks"), format!("Number of times the structure stuck to stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
-                push(
-                    OutputKey::StopStuckTime(i),
-                    named(n, s, "stuck_time"),
-                    format!("Total time the structure has been stuck to stop '{s}' since the start (exact, the current hold included)"),
-                    Unit::Second,
-                    real,
-                    false,
-                );
-                push(
-                    OutputKey::StopReaction(i),
-                    named(n, s, "lambda"),
-                    format!("Reaction of stop '{s}' while sticking (seed 000 eq. 33; <= 0 for a stop on the +w side), else 0"),
-                    Unit::Newton,
-                    real,
-                    false,
-                );
-            }
-            StopLaw::SpringDashpot(_) | StopLaw::Hertz(_) => {
-                let law = if matches!(stop.law, StopLaw::Hertz(_)) { "K p^1.5 + damping" } else { "k p + c p'" };
-                push(OutputKey::StopForce(i), named(n, s, "force"), format!("Force of stop '{s}', max(0, {law}) while in contact (>= 0, pushing the structure away)"), Unit::Newton, real, false);
-                push(OutputKey::StopPenetration(i), named(n, s, "penetration"), format!("Penetration p of stop '{s}' (negative: the clearance left)"), Unit::Metre, real, false);
-                push(OutputKey::StopContact(i), named(n, s, "contact"), format!("Whether stop '{s}' pushes (in contact)"), Unit::One, OutputType::Boolean, true);
-                push(OutputKey::StopImpacts(i), named(n, s, "contacts"), format!("Number of contact onsets at stop '{s}' since the start"), Unit::One, OutputType::Integer, true);
-                push(
-                    OutputKey::StopLastImpact(i),
-                    named(n, s, "t_last_contact"),
-                    format!("Exact time of the latest contact onset at stop '{s}' (the start time before the first)"),
-                    Unit::Second,
-                    real,
-                    true,
-                );
-                push(OutputKey::StopStoredEnergy(i), named(n, s, "E_stored"), format!("Elastic energy stored in stop '{s}' in contact ({})", if matches!(stop.law, StopLaw::Hertz(_)) { "2/5 K p^2.5" } else { "k p^2 / 2" }), Unit::Joule, real, false);
-                push(
-                    OutputKey::StopDissipatedEnergy(i),
-                    named(n, s, "E_dissipated"),
-                    format!("Energy dissipated in stop '{s}' since the start (its dashpot, and the spring energy left when contact ends inside the surface)"),
-                    Unit::Joule,
-                    real,
-                    false,
-                );
-            }
+        // What the law provides.
+        let (force, stored) = stop.law.formulas();
+        for o in stop.law.outputs() {
+            let key = match o.what {
+                StopOutput::Impacts => OutputKey::StopImpacts(i),
+                StopOutput::LastImpact => OutputKey::StopLastImpact(i),
+                StopOutput::Sticking => OutputKey::StopSticking(i),
+                StopOutput::Sticks => OutputKey::StopSticks(i),
+                StopOutput::StuckTime => OutputKey::StopStuckTime(i),
+                StopOutput::Reaction => OutputKey::StopReaction(i),
+                StopOutput::Force => OutputKey::StopForce(i),
+                StopOutput::Penetration => OutputKey::StopPenetration(i),
+                StopOutput::Contact => OutputKey::StopContact(i),
+                StopOutput::StoredEnergy => OutputKey::StopStoredEnergy(i),
+                StopOutput::DissipatedEnergy => OutputKey::StopDissipatedEnergy(i),
+            };
+            let description = o.description.replace("{stop}", s).replace("{force}", force).replace("{stored}", stored);
+            push(key, named(n, s, o.suffix), description, o.unit, o.kind, o.discrete);
         }
         if scene.outputs.impulse {
             push(
@@ -657,7 +531,7 @@ pub fn outputs(scene: &Scene) -> Vec<Output> {
 pub fn variable_names(scene: &Scene) -> Vec<String> {
     let mut v: Vec<String> = parameters(scene).into_iter().map(|p| p.name).collect();
     v.extend(inputs(scene).into_iter().map(|i| i.name));
-    v.extend(outputs(scene).into_iter().map(|o| o.name));
+    v.extend(outputs(scene).into_iter().map(|(_, o)| o.name));
     v
 }
 
@@ -674,8 +548,10 @@ impl Scene {
     /// parameter that carries it, and distinct variable names.
     pub fn validate(&self) -> Result<(), SceneError> {
         self.validate_structure()?;
+        let json = serde_json::to_value(self).expect("a scene always serialises");
         for p in parameters(self) {
-            p.range.check(&format!("{} ({})", p.scene_path, p.name), p.key.get(self)).map_err(SceneError)?;
+            let value = crate::fields::get(&json, &p.scene_path).map_err(SceneError)?;
+            p.range.check(&format!("{} ({})", p.scene_path, p.name), value).map_err(SceneError)?;
         }
         let mut names = std::collections::BTreeSet::new();
         for v in variable_names(self) {

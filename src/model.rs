@@ -7,7 +7,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StopLaw, StructureSpec, SupportKind, Waveform};
+use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Geometry, Law};
 use crate::solve::lti::SystemCache;
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
@@ -251,10 +251,8 @@ impl Model {
         let inputs = project_inputs(scene, &shape_at, &inertial);
         let mut transfer = None;
         for (i, s) in scene.stops.iter().enumerate() {
-            if let (StopLaw::SpringDashpot(l), Structure::Beam(b)) = (&s.law, &structure) {
-                if l.method != ContactMethod::Fim {
-                    transfer = Some(TransferBasis::build(scene, b, i, (l.k, l.method, l.transfer_damping), &zeta));
-                }
+            if let (Some(spring), Structure::Beam(b)) = (s.law.mode_transfer(), &structure) {
+                transfer = Some(TransferBasis::build(scene, b, i, spring, &zeta));
             }
         }
         let coordinate_scale = structure.coordinate_scale();

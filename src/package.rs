@@ -28,27 +28,6 @@ fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
 
-/// How the unit computes, in a paragraph.
-fn method(scene: &Component) -> &'static str {
-    match scene {
-        Component::Modal(_) => {
-            "Between events the modal equations are propagated in closed form (contact phases of a \
-             nonlinear stop law by Radau IIA); impacts, chatter, sticking and release are located so that \
-             none can be missed, and the trajectory does not depend on the communication step. Events \
-             inside a step are reported through the outputs (counters, exact time of the latest impact) \
-             and the <code>logEvents</code> log category."
-        }
-        Component::Rotating(_) => {
-            "The hub angle and the bending modes (with geometric stiffening in the first-order model) are \
-             integrated by Radau IIA with error control on a step grid that never depends on the \
-             communication step; contact onsets, the end of each push and separations are located on \
-             every step's collocation polynomial, including interior minima of the gap, so a graze \
-             inside a step is not missed. Events are reported through the outputs and the \
-             <code>logEvents</code> log category."
-        }
-    }
-}
-
 /// documentation/index.html: what the model is, its variables, an example.
 pub fn documentation(scene: &Component) -> String {
     let table = VariableTable::new(scene);
@@ -94,15 +73,29 @@ print(result[-1])
 <pre>{scene_json}</pre>
 </body></html>
 "#,
-        name = escape(scene.name()),
-        description = escape(scene.description()),
+        name = escape(&scene.name()),
+        description = escape(&scene.description()),
         version = env!("CARGO_PKG_VERSION"),
-        method = method(scene),
+        method = scene.method(),
         stop = e.stop,
         step = e.step,
         outputs = outputs.join(", "),
         scene_json = escape(&scene.canonical_json()),
     )
+}
+
+/// The shared library `lib<crate>.so` (or the platform's form) cargo built
+/// beside the running executable: the FMU binary a packaging command packs.
+pub fn library_beside_executable(crate_name: &str) -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let dir = exe.parent().ok_or("no executable directory")?;
+    let name = format!("{}{crate_name}{}", std::env::consts::DLL_PREFIX, std::env::consts::DLL_SUFFIX);
+    let path = dir.join(&name);
+    if path.exists() {
+        Ok(path)
+    } else {
+        Err(format!("{} not found next to {}: build it with cargo build --release first", name, exe.display()))
+    }
 }
 
 /// Writes `<out_dir>/<name>.fmu` holding the given FMU binary.

@@ -3,14 +3,7 @@
 
 use crate::interface::OutputKey;
 use crate::sim::Simulation;
-
-/// The value of an output.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Value {
-    Real(f64),
-    Integer(i64),
-    Boolean(bool),
-}
+pub use crate::variables::Value;
 
 /// Reads an output from a simulation at its current time.
 pub fn evaluate(key: OutputKey, sim: &Simulation) -> Value {

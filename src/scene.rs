@@ -8,7 +8,8 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
+
+pub use crate::variables::{guid_of, Experiment, Range};
 
 pub type Names = BTreeMap<String, String>;
 
@@ -347,22 +348,6 @@ impl Default for Solver {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Experiment {
-    #[serde(default)]
-    pub start: f64,
-    pub stop: f64,
-    /// Communication step.
-    pub step: f64,
-}
-
-impl Default for Experiment {
-    fn default() -> Self {
-        Experiment { start: 0.0, stop: 20.0, step: 0.01 }
-    }
-}
-
 /// A scene that failed to load or validate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneError(pub String);
@@ -374,75 +359,6 @@ impl fmt::Display for SceneError {
 }
 
 impl std::error::Error for SceneError {}
-
-/// `{xxxxxxxx-xxxx-xxxx-xxxx-xxxxxxxxxxxx}` from the SHA-256 of the crate
-/// version and a scene's canonical text.
-pub fn guid_of(canonical: &str) -> String {
-    let mut hasher = Sha256::new();
-    hasher.update(env!("CARGO_PKG_VERSION").as_bytes());
-    hasher.update([0u8]);
-    hasher.update(canonical.as_bytes());
-    let d = hasher.finalize();
-    let hex: String = d.iter().take(16).map(|b| format!("{b:02x}")).collect();
-    format!("{{{}-{}-{}-{}-{}}}", &hex[0..8], &hex[8..12], &hex[12..16], &hex[16..20], &hex[20..32])
-}
-
-/// An allowed interval for a real value.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Range {
-    pub min: f64,
-    pub max: f64,
-    pub min_open: bool,
-    pub max_open: bool,
-}
-
-impl Range {
-    pub const ANY: Range = Range { min: f64::NEG_INFINITY, max: f64::INFINITY, min_open: false, max_open: false };
-    pub const NON_NEGATIVE: Range = Range { min: 0.0, max: f64::INFINITY, min_open: false, max_open: false };
-    pub const POSITIVE: Range = Range { min: 0.0, max: f64::INFINITY, min_open: true, max_open: false };
-    pub const UNIT: Range = Range { min: 0.0, max: 1.0, min_open: false, max_open: false };
-
-    pub fn open(min: f64, max: f64) -> Range {
-        Range { min, max, min_open: true, max_open: true }
-    }
-
-    pub fn closed(min: f64, max: f64) -> Range {
-        Range { min, max, min_open: false, max_open: false }
-    }
-
-    pub fn contains(&self, v: f64) -> bool {
-        if !v.is_finite() {
-            return false;
-        }
-        let above = if self.min_open { v > self.min } else { v >= self.min };
-        let below = if self.max_open { v < self.max } else { v <= self.max };
-        above && below
-    }
-
-    /// Checks `value` and explains a failure: "`what` = value: allowed ...".
-    pub fn check(&self, what: &str, value: f64) -> Result<(), String> {
-        if self.contains(value) {
-            Ok(())
-        } else {
-            Err(format!("{what} = {value:?}: allowed range is {self} (finite)"))
-        }
-    }
-}
-
-impl fmt::Display for Range {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let lo = if self.min_open || self.min.is_infinite() { '(' } else { '[' };
-        let hi = if self.max_open || self.max.is_infinite() { ')' } else { ']' };
-        let num = |x: f64| {
-            if x.is_infinite() {
-                if x > 0.0 { "inf".to_string() } else { "-inf".to_string() }
-            } else {
-                format!("{x}")
-            }
-        };
-        write!(f, "{lo}{}, {}{hi}", num(self.min), num(self.max))
-    }
-}
 
 fn err<T>(m: String) -> Result<T, SceneError> {
     Err(SceneError(m))
@@ -619,35 +535,32 @@ impl Scene {
         for (i, s) in self.stops.iter().enumerate() {
             unique(format!("stops[{i}].name"), &s.name)?;
             self.check_location(&format!("stops[{i}]"), &s.at())?;
-            if let StopLaw::SpringDashpot(crate::contact::SpringDashpot { method, c, .. }) = s.law {
-                if method != ContactMethod::Fim {
-                    let length = self.section()?.map_or(1.0, |s| s.length);
-                    let cantilever = matches!(self.structure, StructureSpec::Beam { support: SupportKind::ClampedFree, .. });
-                    if !cantilever || s.x != Some(length) || self.stops.len() != 1 {
-                        return err(format!(
-                            "stops[{i}].law.method = {method:?}: mode transfer needs the only stop of a clamped-free beam, at its tip (x = {length}); use \"fim\""
-                        ));
-                    }
-                    if c != 0.0 {
-                        return err(format!("stops[{i}].law.c = {c}: mode transfer (method {method:?}) models a spring stop alone: c must be 0, or use \"fim\""));
-                    }
-                    if self.outputs.energy_balance {
-                        return err(format!("outputs.energy_balance: not available with stops[{i}].law.method = {method:?}; use \"fim\""));
-                    }
+            s.law.validate(&format!("stops[{i}].law")).map_err(SceneError)?;
+            if let Some((_, method, _)) = s.law.mode_transfer() {
+                let length = self.section()?.map_or(1.0, |s| s.length);
+                let cantilever = matches!(self.structure, StructureSpec::Beam { support: SupportKind::ClampedFree, .. });
+                if !cantilever || s.x != Some(length) || self.stops.len() != 1 {
+                    return err(format!(
+                        "stops[{i}].law.method = {method:?}: mode transfer needs the only stop of a clamped-free beam, at its tip (x = {length}); use \"fim\""
+                    ));
+                }
+                if self.outputs.energy_balance {
+                    return err(format!("outputs.energy_balance: not available with stops[{i}].law.method = {method:?}; use \"fim\""));
                 }
             }
         }
-        if let Some(i) = self.stops.iter().position(|s| s.law.is_nonlinear()) {
-            // A Hertz contact phase is integrated on the structure's own
-            // modes, beside free or impacting other stops.
-            if let Some(k) = self.stops.iter().position(|s| !s.law.is_nonlinear()) {
+        let integrated = |l: &StopLaw| l.states().iter().any(|c| l.term(*c) == crate::contact::PhaseTerm::Nonlinear);
+        if let Some(i) = self.stops.iter().position(|s| integrated(&s.law)) {
+            // An integrated contact phase takes every engaged stop as a
+            // force: no constraint (a rigid stop) beside it.
+            if let Some(k) = self.stops.iter().position(|s| s.law.rigid()) {
+                let name = serde_json::to_value(&self.stops[k].law).ok().and_then(|v| v["type"].as_str().map(str::to_string)).unwrap_or_default();
                 return err(format!(
-                    "stops[{k}].law: a {} stop cannot share a scene with the hertz stop stops[{i}] (its contact phases are integrated, without constraints or linear springs); use a hertz law for every stop",
-                    match self.stops[k].law { StopLaw::Restitution(_) => "restitution", _ => "spring_dashpot" }
+                    "stops[{k}].law: a {name} stop cannot share a scene with stops[{i}], whose contact phases are integrated (every engaged stop is then a force, and a rigid stop has none); use a compliant law for every stop"
                 ));
             }
             if self.outputs.energy_balance {
-                return err(format!("outputs.energy_balance: not available with the hertz stop stops[{i}]; its own energy outputs give the balance"));
+                return err(format!("outputs.energy_balance: not available with stops[{i}], whose contact phases are integrated; its own energy outputs give the balance"));
             }
         }
         for (i, s) in self.sensors.iter().enumerate() {

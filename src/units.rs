@@ -22,6 +22,12 @@ pub enum Unit {
     Radian,
     /// Moment of inertia, kg m^2.
     KilogramMetre2,
+    /// Controller gains: torque per angle, per angular speed, per angle
+    /// and time; and an angle integrated over time.
+    NewtonMetrePerRadian,
+    NewtonMetreSecondPerRadian,
+    NewtonMetrePerRadianSecond,
+    RadianSecond,
 }
 
 impl Unit {
@@ -43,6 +49,10 @@ impl Unit {
             Unit::NewtonSecondPerMetre2 => "N.s/m2",
             Unit::Radian => "rad",
             Unit::KilogramMetre2 => "kg.m2",
+            Unit::NewtonMetrePerRadian => "N.m/rad",
+            Unit::NewtonMetreSecondPerRadian => "N.m.s/rad",
+            Unit::NewtonMetrePerRadianSecond => "N.m/(rad.s)",
+            Unit::RadianSecond => "rad.s",
         }
     }
 
@@ -64,6 +74,10 @@ impl Unit {
             Unit::NewtonSecondPerMetre2 => [1, -1, -1, 0],
             Unit::Radian => [0, 0, 0, 1],
             Unit::KilogramMetre2 => [1, 2, 0, 0],
+            Unit::NewtonMetrePerRadian => [1, 2, -2, -1],
+            Unit::NewtonMetreSecondPerRadian => [1, 2, -1, -1],
+            Unit::NewtonMetrePerRadianSecond => [1, 2, -3, -1],
+            Unit::RadianSecond => [0, 0, 1, 1],
         })
     }
 }

@@ -8,7 +8,9 @@
 mod common;
 
 use beamstop::codec::{Reader, Writer};
-use beamstop::component::{Component, Run};
+use beamstop::component::Component;
+use beamstop::kind::Run;
+use beamstop::kinds::rotating::RotatingRun;
 use beamstop::contact::Contact;
 use beamstop::sim::SimState;
 use beamstop::{Model, Simulation};
@@ -132,20 +134,24 @@ mod rotating {
         Component::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes/rotating_beam.json")).unwrap()).unwrap()
     }
 
-    fn bytes(run: &Run) -> Vec<u8> {
+    fn bytes(run: &dyn Run) -> Vec<u8> {
         let mut w = Writer(Vec::new());
         run.encode(&mut w);
         w.0
     }
 
-    fn decode(scene: &Component, bytes: &[u8]) -> Result<Run, String> {
+    fn decode(scene: &Component, bytes: &[u8]) -> Result<Box<dyn Run>, String> {
         scene.decode(&[0.0], &mut Reader::new(bytes))
     }
 
-    /// The offsets (after the component's 4-byte length prefix) of the
-    /// contact code and of the anchor's and the current state's entries.
-    const CONTACT: usize = 4 + 9;
+    /// The offsets of the contact code and of the anchor's and the current
+    /// state's entries.
+    const CONTACT: usize = 9;
     const NUMBERS: usize = CONTACT + 1 + 7 * 8 + 8 + 8;
+
+    fn rotating(run: &dyn Run) -> &beamstop::rotating::RotatingSimulation {
+        &run.as_any().downcast_ref::<RotatingRun>().expect("a rotating run").sim
+    }
 
     fn vector_offsets(bytes: &[u8]) -> (usize, usize, usize) {
         let dim = u32::from_le_bytes(bytes[NUMBERS..NUMBERS + 4].try_into().unwrap()) as usize;
@@ -169,9 +175,9 @@ mod rotating {
         // inside: marked open there, it is refused.
         let mut inside = scene.start(0.0, &[0.0]).unwrap();
         inside.advance_to(1e-5).unwrap();
-        let Run::Rotating(sim) = &inside else { panic!("a rotating run") };
-        assert!(sim.contact_state() == beamstop::rotating::ContactState::Pressed && sim.penetration() > 0.0);
-        let mut forged = bytes(&inside);
+        let sim = rotating(inside.as_ref());
+        assert!(sim.contact_state() == Contact::Pressed && sim.penetration() > 0.0);
+        let mut forged = bytes(inside.as_ref());
         decode(&scene, &forged).expect("the true state");
         forged[CONTACT] = 0;
         let m = decode(&scene, &forged).err().expect("open while inside: accepted");
@@ -183,13 +189,13 @@ mod rotating {
         loop {
             t += 1e-4;
             run.advance_to(t).unwrap();
-            let Run::Rotating(s) = &run else { unreachable!() };
-            if s.contact_state() == beamstop::rotating::ContactState::Open && s.gap() > 1e-4 {
+            let s = rotating(run.as_ref());
+            if s.contact_state() == Contact::Open && s.gap() > 1e-4 {
                 break;
             }
             assert!(t < 0.05, "the tip never left the surface");
         }
-        let apart = bytes(&run);
+        let apart = bytes(run.as_ref());
         decode(&scene, &apart).expect("the true state");
         let (_, anchor, current) = vector_offsets(&apart);
         let mut through = apart.clone();
@@ -201,7 +207,7 @@ mod rotating {
         let m = decode(&scene, &through).err().expect("tip through the surface: accepted");
         assert!(m.contains("penetration"), "{m}");
         // Pressed (and penetrated) on a free beam.
-        for code in [1u8, 2] {
+        for code in [2u8, 3] {
             let mut flagged = apart.clone();
             flagged[CONTACT] = code;
             let m = decode(&scene, &flagged).err().unwrap_or_else(|| panic!("contact code {code} apart: accepted"));
@@ -211,12 +217,12 @@ mod rotating {
         // In contact, pushing: marked penetrated (force-free) is refused.
         let mut run = scene.start(0.0, &[0.0]).unwrap();
         run.advance_to(1e-5).unwrap();
-        let Run::Rotating(s) = &run else { unreachable!() };
-        assert!(s.contact_state() == beamstop::rotating::ContactState::Pressed && s.contact_force() > 0.0);
-        let pressed = bytes(&run);
+        let s = rotating(run.as_ref());
+        assert!(s.contact_state() == Contact::Pressed && s.contact_force() > 0.0);
+        let pressed = bytes(run.as_ref());
         decode(&scene, &pressed).expect("the true state");
         let mut penetrated = pressed.clone();
-        penetrated[CONTACT] = 2;
+        penetrated[CONTACT] = 3;
         let m = decode(&scene, &penetrated).err().expect("penetrated while pushing: accepted");
         assert!(m.contains("law would push"), "{m}");
     }

@@ -10,7 +10,10 @@
 
 use std::time::{Duration, Instant};
 
-use beamstop::component::{AnyParam, Component, Run};
+use beamstop::component::Component;
+use beamstop::kind::Run;
+use beamstop::kinds::modal::ModalRun;
+use beamstop::kinds::rotating::RotatingRun;
 use beamstop::scene::Range;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
@@ -29,23 +32,24 @@ fn component(name: &str) -> Component {
     Component::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes/{name}.json")).unwrap()).unwrap()
 }
 
-fn check_sane(run: &Run, what: &str) {
-    match run {
-        Run::Modal(sim) => {
+fn check_sane(run: &dyn Run, what: &str) {
+    match (run.as_any().downcast_ref::<ModalRun>(), run.as_any().downcast_ref::<RotatingRun>()) {
+        (Some(ModalRun { sim, .. }), _) => {
             let c = sim.current();
             assert!(c.q.iter().chain(c.qd.iter()).all(|x| x.is_finite()), "{what}: non-finite state");
             assert!(sim.energy().is_finite(), "{what}: energy {}", sim.energy());
-            for s in sim.model().stops.iter().filter(|s| s.law.is_rigid()) {
+            for s in sim.model().stops.iter().filter(|s| s.law.rigid()) {
                 let y = s.geometry.w.dot(&c.q);
                 let scale = s.geometry.gap.abs() + s.geometry.w.iter().zip(c.q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
                 let penetration = s.geometry.side * (y - s.geometry.target());
                 assert!(penetration <= 1e-9 * scale.max(1e-300), "{what}: stop '{}' penetrated by {penetration:e}", s.name);
             }
         }
-        Run::Rotating(sim) => {
+        (_, Some(RotatingRun { sim, .. })) => {
             assert!(sim.y().iter().all(|x| x.is_finite()), "{what}: non-finite state");
             assert!(sim.total_energy().is_finite(), "{what}: energy {}", sim.total_energy());
         }
+        _ => panic!("{what}: a run of another kind"),
     }
 }
 
@@ -89,21 +93,21 @@ fn try_value(name: &str, scene: &Component, inputs: &[f64], what: &str, field: &
     // test ends at the horizon.
     let horizon = experiment.stop - start;
     let mut targets = vec![start + experiment.step, start + horizon];
-    if matches!(run, Run::Modal(_)) {
+    if run.as_any().is::<ModalRun>() {
         targets.push(start + 1e3 * horizon);
     }
     for target in targets {
         let t1 = Instant::now();
         match run.advance_to(target) {
             Ok(()) => assert_eq!(run.time(), target, "{what}"),
-            Err(e) if e.recoverable => assert!(run.time() <= target, "{what}"),
-            Err(e) => return Err(format!("{what}, step to {target}: the run ends: {}", e.message)),
+            Err(e) if e.recoverable() => assert!(run.time() <= target, "{what}"),
+            Err(e) => return Err(format!("{what}, step to {target}: the run ends: {e}")),
         }
         let took = t1.elapsed();
         if took > longest.0 {
             longest = (took, format!("{what}, step to {target}"));
         }
-        check_sane(&run, what);
+        check_sane(run.as_ref(), what);
     }
     let _ = name;
     Ok(Outcome::Ran(longest.0, longest.1))
@@ -129,7 +133,7 @@ fn scene_ends(name: &str) -> (usize, usize, (Duration, String), Vec<String>) {
             }
         }
     };
-    for p in base.parameters() {
+    for (k, p) in base.parameters().iter().enumerate() {
         for value in ends(&p.range) {
             let what = format!("{name}: {} = {value:e}", p.name);
             if !value.is_finite() {
@@ -137,8 +141,7 @@ fn scene_ends(name: &str) -> (usize, usize, (Duration, String), Vec<String>) {
                 continue;
             }
             let mut scene = base.clone();
-            let key: AnyParam = p.key;
-            scene.set(key, value);
+            scene.set(k, value);
             tally(try_value(name, &scene, &vec![0.0; n_inputs], &what, &[&p.name, &p.scene_path]));
         }
     }

@@ -9,9 +9,12 @@
 use std::collections::BTreeSet;
 
 use beamstop::codec::{Reader, Writer};
-use beamstop::component::{Component, Run};
+use beamstop::component::Component;
 use beamstop::contact::Contact;
-use beamstop::readout::Value;
+use beamstop::kind::Run;
+use beamstop::kinds::modal::ModalRun;
+use beamstop::kinds::rotating::RotatingRun;
+use beamstop::variables::Value;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -20,22 +23,23 @@ fn component(name: &str) -> Component {
 }
 
 /// Every output's bits.
-fn outputs(scene: &Component, run: &Run) -> Vec<(String, u64)> {
+fn outputs(scene: &Component, run: &dyn Run) -> Vec<(String, u64)> {
     scene
         .outputs()
-        .into_iter()
-        .map(|o| {
-            let bits = match run.evaluate(o.key) {
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let bits = match run.evaluate(i) {
                 Value::Real(x) => x.to_bits(),
                 Value::Integer(i) => i as u64,
                 Value::Boolean(b) => b as u64,
             };
-            (o.name, bits)
+            (o.name.clone(), bits)
         })
         .collect()
 }
 
-fn encode(run: &Run) -> Vec<u8> {
+fn encode(run: &dyn Run) -> Vec<u8> {
     let mut w = Writer(Vec::new());
     run.encode(&mut w);
     w.0
@@ -44,31 +48,31 @@ fn encode(run: &Run) -> Vec<u8> {
 /// The kind of phase a run is in: free, or which contact states its stops
 /// are in ("held", "pressed", "penetrated"), and "chatter" inside a rigid
 /// stop's chatter sequence (an impact that may be followed by a stick).
-fn phases(run: &Run) -> Vec<&'static str> {
-    match run {
-        Run::Modal(sim) => {
-            let mut out = Vec::new();
-            for (i, s) in sim.state().stops.iter().enumerate() {
-                out.push(match sim.contact(i) {
-                    Contact::Open => "free",
-                    Contact::Held => "held",
-                    Contact::Pressed => "pressed",
-                    Contact::Penetrated => "penetrated",
-                });
-                if s.previous_impact.is_some() {
-                    out.push("chatter");
-                }
+fn phases(run: &dyn Run) -> Vec<&'static str> {
+    if let Some(ModalRun { sim, .. }) = run.as_any().downcast_ref::<ModalRun>() {
+        let mut out = Vec::new();
+        for (i, s) in sim.state().stops.iter().enumerate() {
+            out.push(match sim.contact(i) {
+                Contact::Open => "free",
+                Contact::Held => "held",
+                Contact::Pressed => "pressed",
+                Contact::Penetrated => "penetrated",
+            });
+            if s.previous_impact.is_some() {
+                out.push("chatter");
             }
-            if out.is_empty() {
-                out.push("free");
-            }
-            out
         }
-        Run::Rotating(sim) => vec![match sim.contact_state() {
-            beamstop::rotating::ContactState::Open => "free",
-            beamstop::rotating::ContactState::Pressed => "pressed",
-            beamstop::rotating::ContactState::Penetrated => "penetrated",
-        }],
+        if out.is_empty() {
+            out.push("free");
+        }
+        out
+    } else {
+        let sim = &run.as_any().downcast_ref::<RotatingRun>().expect("a modal or rotating run").sim;
+        vec![match sim.contact_state() {
+            Contact::Pressed => "pressed",
+            Contact::Penetrated => "penetrated",
+            _ => "free",
+        }]
     }
 }
 
@@ -102,10 +106,10 @@ fn check(name: &str, packaged: &Component, h: f64, steps: usize, warmup: f64, ch
             match change {
                 Change::None => {}
                 Change::Parameter(p, value) => {
-                    let param = scene.parameters().into_iter().find(|q| q.name == p).unwrap_or_else(|| panic!("{name}: no parameter {p}"));
-                    assert!(param.tunable, "{name}: {p} is not tunable");
-                    scene.set(param.key, value);
-                    scene.retune(&mut run).unwrap();
+                    let k = scene.parameters().iter().position(|q| q.name == p).unwrap_or_else(|| panic!("{name}: no parameter {p}"));
+                    assert!(scene.parameters()[k].tunable, "{name}: {p} is not tunable");
+                    scene.set(k, value);
+                    scene.retune(run.as_mut()).unwrap();
                 }
                 Change::Input(i, value) => {
                     inputs[i] = value;
@@ -113,15 +117,15 @@ fn check(name: &str, packaged: &Component, h: f64, steps: usize, warmup: f64, ch
                 }
             }
         }
-        seen.extend(phases(&run));
-        let saved = encode(&run);
+        seen.extend(phases(run.as_ref()));
+        let saved = encode(run.as_ref());
         let mut restored = scene.decode(&inputs, &mut Reader::new(&saved)).unwrap_or_else(|e| panic!("{name}: restore at step {k}: {e}"));
         let t = run.time() + h;
         let a = run.advance_to(t);
         let b = restored.advance_to(t);
         compared += 1;
-        let (oa, ob) = (outputs(&scene, &run), outputs(&scene, &restored));
-        let same_state = encode(&run) == encode(&restored);
+        let (oa, ob) = (outputs(&scene, run.as_ref()), outputs(&scene, restored.as_ref()));
+        let same_state = encode(run.as_ref()) == encode(restored.as_ref());
         if a != b || oa != ob || !same_state {
             differing += 1;
             if first.is_empty() {
@@ -135,7 +139,8 @@ fn check(name: &str, packaged: &Component, h: f64, steps: usize, warmup: f64, ch
                 first = format!("{name} h = {h:e}, step {k} to t = {t}: {:?} vs {:?}; state same: {same_state}; {}", a.as_ref().err(), b.as_ref().err(), which.join(", "));
             }
         }
-        if a.is_err() {
+        if let Err(e) = &a {
+            println!("{name} h = {h:e}: step {k} ends: {e}");
             break;
         }
     }

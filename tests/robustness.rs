@@ -87,9 +87,9 @@ fn the_work_of_one_step_is_capped() {
     scene.solver.max_probes_per_step = Some(20_000);
     let mut sim = start(&scene);
     match sim.advance_to(1000.0) {
-        Err(SimError::TooMuchWork { time, probes }) => {
+        Err(SimError::TooMuchWork { time, work: probes, cap }) => {
             assert_eq!(probes, 20_000);
-            assert!(SimError::TooMuchWork { time, probes }.to_string().contains("max_probes_per_step"));
+            assert!(SimError::TooMuchWork { time, work: probes, cap }.to_string().contains("max_probes_per_step"));
             assert!(time > 0.0 && time < 1000.0, "{time}");
             assert_eq!(sim.time(), time);
             // The run goes on from there.

@@ -92,7 +92,7 @@ impl Watch {
         for (i, s) in self.sim.model().stops.iter().enumerate() {
             let force = self.sim.stop_force(i);
             assert!(force.is_finite() && force >= -1e-9 * (1.0 + force.abs()), "stop {i} pulls: force {force} at t = {t}");
-            if !s.law.is_rigid() {
+            if !s.law.rigid() {
                 // A compliant stop may be penetrated; it stores energy.
                 stored += self.sim.stop_stored_energy(i);
                 continue;

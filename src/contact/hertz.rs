@@ -19,7 +19,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{closing, Contact, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, LawOutput, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
 use crate::solve::Jet;
 use crate::units::Unit;
 
@@ -95,36 +95,6 @@ impl Hertz {
         },
     ];
 
-    pub fn parameters(&self) -> &'static [ParamSpec] {
-        match self.damping {
-            HertzDamping::Linear => Self::LINEAR,
-            _ => Self::HYSTERETIC,
-        }
-    }
-
-    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
-        let second = match self.damping {
-            HertzDamping::Linear => &mut self.damping_coefficient,
-            _ => &mut self.restitution,
-        };
-        [&mut self.stiffness, second].into_iter().nth(k).expect("a Hertz parameter")
-    }
-
-    pub fn term(&self, contact: Contact) -> PhaseTerm {
-        match contact {
-            Contact::Pressed | Contact::Penetrated => PhaseTerm::Nonlinear,
-            _ => PhaseTerm::None,
-        }
-    }
-
-    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
-        match contact {
-            Contact::Pressed => &[Watch::Force, Watch::Penetration],
-            Contact::Penetrated => &[Watch::NegatedForce, Watch::Penetration],
-            Contact::Open | Contact::Held => &[Watch::Gap],
-        }
-    }
-
     /// `p'` factor of the hysteretic damping (`alpha / v0`), 0 without.
     fn hysteresis(&self, onset_speed: f64) -> f64 {
         let e = self.restitution;
@@ -154,43 +124,52 @@ impl Hertz {
         (f, df_dp, df_dpd)
     }
 
-    /// The force the stop pushes with (>= 0) in contact state `contact`.
-    pub fn force(&self, contact: Contact, p: f64, pd: f64, onset_speed: f64) -> f64 {
-        match contact {
-            Contact::Pressed => self.raw_force(p, pd, onset_speed).0.max(0.0),
-            _ => 0.0,
-        }
-    }
-
     /// Elastic energy stored in the stop, `2/5 K p^2.5`.
     pub fn stored_energy(&self, p: f64) -> f64 {
         let pp = p.max(0.0);
         0.4 * self.stiffness * pp * pp * pp.sqrt()
     }
+}
 
-    /// The value of a watched function at penetration `p`, rate `pd`.
-    pub fn watched_value(&self, watch: Watch, p: f64, pd: f64, onset_speed: f64) -> f64 {
-        match watch {
-            Watch::Force => self.raw_force(p, pd, onset_speed).0,
-            Watch::NegatedForce => -self.raw_force(p, pd, onset_speed).0,
-            Watch::Penetration => p,
-            Watch::Gap => -p,
-            Watch::Reaction => unreachable!("a Hertz stop has no reaction"),
+impl ContactLaw for Hertz {
+    fn parameters(&self) -> &'static [ParamSpec] {
+        match self.damping {
+            HertzDamping::Linear => Self::LINEAR,
+            _ => Self::HYSTERETIC,
         }
     }
 
-    pub fn initial_contact(&self, p: f64, pd: f64) -> Contact {
-        if p <= 0.0 {
-            Contact::Open
-        } else if self.raw_force(p, pd, pd.max(0.0)).0 > 0.0 {
-            Contact::Pressed
-        } else {
-            Contact::Penetrated
+    fn validate(&self, path: &str) -> Result<(), String> {
+        if !self.damping.is_linear() && self.damping_coefficient != 0.0 {
+            return Err(format!(
+                "{path}.C = {:?}: only the linear damping takes C (the {:?} damping takes e); allowed value 0",
+                self.damping_coefficient, self.damping
+            ));
+        }
+        Ok(())
+    }
+
+    fn states(&self) -> &'static [Contact] {
+        COMPLIANT_STATES
+    }
+
+    fn term(&self, contact: Contact) -> PhaseTerm {
+        match contact {
+            Contact::Pressed | Contact::Penetrated => PhaseTerm::Nonlinear,
+            _ => PhaseTerm::None,
+        }
+    }
+
+    fn watches(&self, contact: Contact) -> &'static [Watch] {
+        match contact {
+            Contact::Pressed => &[Watch::Force, Watch::Penetration],
+            Contact::Penetrated => &[Watch::NegatedForce, Watch::Penetration],
+            Contact::Open | Contact::Held => &[Watch::Gap],
         }
     }
 
     /// The decision at a zero of `watch`; `p` the penetration there.
-    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, p: f64) -> Switch {
+    fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, p: f64) -> Switch {
         match (contact, watch) {
             (Contact::Open, Watch::Gap) if closing(jet, true) => Switch::To(Contact::Pressed),
             (Contact::Pressed, Watch::Force) if closing(jet, false) => {
@@ -204,6 +183,49 @@ impl Hertz {
             (Contact::Penetrated, Watch::NegatedForce) if closing(jet, false) => Switch::To(Contact::Pressed),
             _ => Switch::Stay,
         }
+    }
+
+    fn initial_contact(&self, p: f64, pd: f64) -> Contact {
+        if p <= 0.0 {
+            Contact::Open
+        } else if self.raw_force(p, pd, pd.max(0.0)).0 > 0.0 {
+            Contact::Pressed
+        } else {
+            Contact::Penetrated
+        }
+    }
+
+    fn raw_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        Hertz::raw_force(self, p, pd, onset_speed)
+    }
+
+    fn spring_force(&self, p: f64) -> (f64, f64) {
+        let pp = p.max(0.0);
+        (self.stiffness * pp * pp.sqrt(), 1.5 * self.stiffness * pp.sqrt())
+    }
+
+    fn stored_energy(&self, contact: Contact, p: f64) -> f64 {
+        match contact {
+            Contact::Pressed => Hertz::stored_energy(self, p),
+            _ => 0.0,
+        }
+    }
+
+    fn energy_left_at_release(&self, p: f64) -> f64 {
+        Hertz::stored_energy(self, p)
+    }
+
+    /// `(5 m v^2 / 4 K)^(2/5)`, from `2/5 K p^2.5 = m v^2 / 2`.
+    fn depth(&self, speed: f64, inverse_mass: f64) -> f64 {
+        (1.25 * speed * speed / (self.stiffness * inverse_mass)).powf(0.4)
+    }
+
+    fn outputs(&self) -> &'static [LawOutput] {
+        COMPLIANT_OUTPUTS
+    }
+
+    fn formulas(&self) -> (&'static str, &'static str) {
+        ("K p^1.5 + damping", "2/5 K p^2.5")
     }
 }
 

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 pub use hertz::{Hertz, HertzDamping};
 pub use restitution::{apply_impact, ImpactRow, Restitution};
-pub use spring_dashpot::SpringDashpot;
+pub use spring_dashpot::{ContactMethod, SpringDashpot, TransferDamping};
 
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::{Functional, Jet};
@@ -140,16 +140,6 @@ pub enum Switch {
     Graze,
 }
 
-/// A stop's contact law: the registration of every law, and the scene's
-/// `law` object (tagged by `type`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum Law {
-    Restitution(Restitution),
-    SpringDashpot(SpringDashpot),
-    Hertz(Hertz),
-}
-
 /// Which of the structure's limits bounds a law parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RangeKind {
@@ -178,149 +168,209 @@ pub struct ParamSpec {
     pub tunable: bool,
 }
 
-impl Law {
-    pub fn parameters(&self) -> &'static [ParamSpec] {
-        match self {
-            Law::Restitution(_) => Restitution::PARAMETERS,
-            Law::SpringDashpot(_) => SpringDashpot::PARAMETERS,
-            Law::Hertz(l) => l.parameters(),
-        }
-    }
+/// A stop output a law provides (beside every stop's displacement,
+/// velocity and impulse), evaluated by the simulation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum StopOutput {
+    /// Impacts (rigid) or contact onsets (compliant) since the start.
+    Impacts,
+    /// Time of the latest impact or onset.
+    LastImpact,
+    Sticking,
+    Sticks,
+    StuckTime,
+    /// A held stop's reaction.
+    Reaction,
+    /// The force pushing now.
+    Force,
+    Penetration,
+    /// Whether the stop pushes.
+    Contact,
+    StoredEnergy,
+    DissipatedEnergy,
+}
 
-    /// The value of parameter `k` (in the order of [`Self::parameters`]).
-    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
-        match self {
-            Law::Restitution(l) => l.value_mut(k),
-            Law::SpringDashpot(l) => l.value_mut(k),
-            Law::Hertz(l) => l.value_mut(k),
-        }
-    }
+/// How a law describes one of its outputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LawOutput {
+    pub what: StopOutput,
+    /// The variable's suffix (`stop.<suffix>`).
+    pub suffix: &'static str,
+    /// `{stop}` stands for the stop's name.
+    pub description: &'static str,
+    pub unit: crate::units::Unit,
+    pub kind: crate::variables::OutputType,
+    /// Changes only at events.
+    pub discrete: bool,
+}
 
-    pub fn value(&self, k: usize) -> f64 {
-        *self.clone().value_mut(k)
+/// What a stop does: the contract every contact law implements, each in
+/// its own file, registered in [`Law`]. The structure never needs to know
+/// which law a stop has: it asks the law what the stop adds to a phase,
+/// which functions watch for the end of a contact state, what a zero of
+/// one does, and what the stop pushes with, stores and dissipates.
+pub trait ContactLaw: Send + Sync + std::fmt::Debug {
+    /// Its real parameters, in order.
+    fn parameters(&self) -> &'static [ParamSpec];
+    /// What it needs beyond each parameter's own range (a field that one
+    /// variant of the law takes and another does not); the error names
+    /// the field, with `path` the law's place in the scene.
+    fn validate(&self, path: &str) -> Result<(), String> {
+        let _ = path;
+        Ok(())
     }
-
-    pub fn is_rigid(&self) -> bool {
-        matches!(self, Law::Restitution(_))
-    }
-
-    /// Whether some contact state of the law makes the phase nonlinear.
-    pub fn is_nonlinear(&self) -> bool {
-        matches!(self, Law::Hertz(_))
-    }
-
-    pub fn term(&self, contact: Contact) -> PhaseTerm {
-        match self {
-            Law::Restitution(l) => l.term(contact),
-            Law::SpringDashpot(l) => l.term(contact),
-            Law::Hertz(l) => l.term(contact),
-        }
-    }
-
-    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
-        match self {
-            Law::Restitution(l) => l.watches(contact),
-            Law::SpringDashpot(l) => l.watches(contact),
-            Law::Hertz(l) => l.watches(contact),
-        }
-    }
-
-    /// The law's decision at a zero of `watch` in state `contact`.
-    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, geometry: &Geometry, state: &crate::solve::ModalState) -> Switch {
-        match self {
-            Law::Restitution(l) => l.on_zero(contact, watch, jet),
-            Law::SpringDashpot(l) => l.on_zero(contact, watch, jet, geometry, state),
-            Law::Hertz(l) => l.on_zero(contact, watch, jet, geometry.penetration(&state.q)),
-        }
-    }
-
-    /// The contact state of a point at rest in `state` at the start of a run
-    /// (`None`: the state is not admissible for this law).
-    pub fn initial_contact(&self, geometry: &Geometry, state: &crate::solve::ModalState) -> Option<Contact> {
-        match self {
-            Law::Restitution(_) => Some(Contact::Open),
-            Law::SpringDashpot(l) => Some(l.initial_contact(geometry, state)),
-            Law::Hertz(l) => Some(l.initial_contact(geometry.penetration(&state.q), geometry.penetration_rate(&state.qd))),
-        }
-    }
-
-    /// The force the stop pushes with (>= 0), for a state outside a
-    /// constraint (a held stop's force is its reaction); `onset_speed`: the
-    /// approach speed at the latest contact onset.
-    pub fn force(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState, onset_speed: f64) -> f64 {
-        match (self, contact) {
-            (Law::SpringDashpot(l), Contact::Pressed) => l.force(geometry, state),
-            (Law::Hertz(l), _) => l.force(contact, geometry.penetration(&state.q), geometry.penetration_rate(&state.qd), onset_speed),
-            _ => 0.0,
-        }
-    }
-
-    /// The value of a watched function (any but a held stop's reaction,
-    /// which only the constrained phase knows) at penetration `p` and rate
-    /// `pd`, with its derivatives by `p` and `pd`: `(h, dh/dp, dh/dpd)`.
-    pub fn watched(&self, watch: Watch, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
-        let force = || match self {
-            Law::SpringDashpot(l) => (l.k * p + l.c * pd, l.k, l.c),
-            Law::Hertz(l) => l.raw_force(p, pd, onset_speed),
-            Law::Restitution(_) => unreachable!("a rigid stop watches no force"),
-        };
+    /// The contact states the law has.
+    fn states(&self) -> &'static [Contact];
+    /// What the stop adds to the equations of a phase in `contact`.
+    fn term(&self, contact: Contact) -> PhaseTerm;
+    /// The event functions of `contact`, each non-negative while it holds.
+    fn watches(&self, contact: Contact) -> &'static [Watch];
+    /// A watched function (any but a held stop's reaction, which only the
+    /// constrained phase knows) at penetration `p` and rate `pd`, with its
+    /// derivatives by `p` and `pd`: `(h, dh/dp, dh/dpd)`.
+    fn watched(&self, watch: Watch, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
         match watch {
             Watch::Gap => (-p, -1.0, 0.0),
             Watch::Penetration => (p, 1.0, 0.0),
-            Watch::Force => force(),
+            Watch::Force => self.raw_force(p, pd, onset_speed),
             Watch::NegatedForce => {
-                let (f, dp, dpd) = force();
+                let (f, dp, dpd) = self.raw_force(p, pd, onset_speed);
                 (-f, -dp, -dpd)
             }
             Watch::Reaction => unreachable!("a held stop's reaction is the phase's"),
         }
     }
-
-    /// The contact states this law has.
-    pub fn states(&self) -> &'static [Contact] {
-        match self {
-            Law::Restitution(_) => &[Contact::Open, Contact::Held],
-            Law::SpringDashpot(_) | Law::Hertz(_) => &[Contact::Open, Contact::Pressed, Contact::Penetrated],
-        }
+    /// The decision at a zero of `watch` in `contact` (`jet`: the function's
+    /// derivatives there, `p`: the penetration).
+    fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, p: f64) -> Switch;
+    /// The contact state of a point starting at penetration `p`, rate `pd`.
+    fn initial_contact(&self, p: f64, pd: f64) -> Contact;
+    /// Whether a start inside the stop is impossible (a rigid stop).
+    fn rigid(&self) -> bool {
+        false
     }
-
-    /// The force as a functional of the state, for laws whose force is
-    /// linear in it while they push (`None` for a rigid stop: its force is
-    /// a constraint reaction).
-    pub fn force_functional(&self, geometry: &Geometry) -> Option<Functional> {
-        match self {
-            Law::SpringDashpot(l) => Some(l.force_functional(geometry)),
-            Law::Restitution(_) | Law::Hertz(_) => None,
-        }
+    /// The unclamped force at penetration `p` and rate `pd` with its
+    /// derivatives (compliant laws; `onset_speed`: the approach speed at
+    /// the latest onset).
+    fn raw_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        let _ = (p, pd, onset_speed);
+        unreachable!("a rigid stop's force is a constraint reaction")
     }
-
-    /// A dashpot's coefficient, when the stop dissipates while pushing.
-    pub fn dashpot(&self) -> Option<f64> {
-        match self {
-            Law::SpringDashpot(l) if l.c > 0.0 => Some(l.c),
-            _ => None,
-        }
-    }
-
-    /// Energy left in the stop when it lets go at penetration `p` (a
-    /// spring released inside the surface keeps `k p^2 / 2`).
-    pub fn energy_left_at_release(&self, p: f64) -> f64 {
-        match self {
-            Law::SpringDashpot(l) => 0.5 * l.k * p * p,
-            Law::Hertz(l) => l.stored_energy(p),
-            Law::Restitution(_) => 0.0,
-        }
-    }
-
-    /// Elastic energy stored in the stop.
-    pub fn stored_energy(&self, contact: Contact, geometry: &Geometry, state: &crate::solve::ModalState) -> f64 {
-        match (self, contact) {
-            (Law::SpringDashpot(l), Contact::Pressed) => 0.5 * l.k * geometry.penetration(&state.q).max(0.0).powi(2),
-            (Law::Hertz(l), Contact::Pressed) => l.stored_energy(geometry.penetration(&state.q)),
+    /// The force the stop pushes with (>= 0) in `contact`, outside a constraint.
+    fn force(&self, contact: Contact, p: f64, pd: f64, onset_speed: f64) -> f64 {
+        match contact {
+            Contact::Pressed => self.raw_force(p, pd, onset_speed).0.max(0.0),
             _ => 0.0,
         }
     }
+    /// The spring's share of the force at penetration `p` (the rest
+    /// dissipates) and its derivative by `p`.
+    fn spring_force(&self, p: f64) -> (f64, f64) {
+        let _ = p;
+        (0.0, 0.0)
+    }
+    /// The force as a functional of the modal state, for laws whose force
+    /// is linear in it while they push (`None` otherwise).
+    fn force_functional(&self, geometry: &Geometry) -> Option<Functional> {
+        let _ = geometry;
+        None
+    }
+    /// A dashpot's coefficient, when the stop dissipates while its phase is linear.
+    fn dashpot(&self) -> Option<f64> {
+        None
+    }
+    /// Elastic energy stored at penetration `p` in `contact`.
+    fn stored_energy(&self, contact: Contact, p: f64) -> f64 {
+        let _ = (contact, p);
+        0.0
+    }
+    /// How deep a point of mass `1 / inverse_mass` arriving at `speed`
+    /// goes, the penetration storing its kinetic energy: the scale of a
+    /// contact (infinite for a rigid stop).
+    fn depth(&self, speed: f64, inverse_mass: f64) -> f64 {
+        let _ = (speed, inverse_mass);
+        f64::INFINITY
+    }
+    /// Energy left in the stop when it lets go at penetration `p`.
+    fn energy_left_at_release(&self, p: f64) -> f64 {
+        self.stored_energy(Contact::Pressed, p)
+    }
+    /// The restitution an impact at time `t` uses (rigid laws; `None`:
+    /// the law does not impact).
+    fn restitution(&self, t: f64, previous_impact: Option<f64>, speed: f64, negligible: f64) -> Option<f64> {
+        let _ = (t, previous_impact, speed, negligible);
+        None
+    }
+    /// Mode transfer for a tip spring (seed 001's MTM and RMTM): the
+    /// spring's stiffness, the method and the damping of the contact modes.
+    fn mode_transfer(&self) -> Option<(f64, ContactMethod, TransferDamping)> {
+        None
+    }
+    /// The stop outputs this law provides.
+    fn outputs(&self) -> &'static [LawOutput];
+    /// The formulas its output descriptions quote: the force and the
+    /// stored energy.
+    fn formulas(&self) -> (&'static str, &'static str) {
+        ("", "")
+    }
 }
+
+/// The registration of every law: the scene's `law` object, tagged by
+/// `type`. A new law is a file implementing [`ContactLaw`] and a variant
+/// here with its arm in `deref`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Law {
+    Restitution(Restitution),
+    SpringDashpot(SpringDashpot),
+    Hertz(Hertz),
+}
+
+impl std::ops::Deref for Law {
+    type Target = dyn ContactLaw;
+
+    fn deref(&self) -> &(dyn ContactLaw + 'static) {
+        match self {
+            Law::Restitution(l) => l,
+            Law::SpringDashpot(l) => l,
+            Law::Hertz(l) => l,
+        }
+    }
+}
+
+/// The contact states of a compliant stop: apart, pressed (pushing),
+/// penetrated without force.
+pub const COMPLIANT_STATES: &[Contact] = &[Contact::Open, Contact::Pressed, Contact::Penetrated];
+
+/// The outputs of a compliant stop (`{force}` and `{stored}` stand for
+/// the law's formulas, [`ContactLaw::formulas`]).
+pub const COMPLIANT_OUTPUTS: &[LawOutput] = {
+    use crate::units::Unit;
+    use crate::variables::OutputType::{Boolean, Integer, Real};
+    &[
+        LawOutput { what: StopOutput::Force, suffix: "force", description: "Force of stop '{stop}', max(0, {force}) while in contact (>= 0, pushing the structure away)", unit: Unit::Newton, kind: Real, discrete: false },
+        LawOutput { what: StopOutput::Penetration, suffix: "penetration", description: "Penetration p of stop '{stop}' (negative: the clearance left)", unit: Unit::Metre, kind: Real, discrete: false },
+        LawOutput { what: StopOutput::Contact, suffix: "contact", description: "Whether stop '{stop}' pushes (in contact)", unit: Unit::One, kind: Boolean, discrete: true },
+        LawOutput { what: StopOutput::Impacts, suffix: "contacts", description: "Number of contact onsets at stop '{stop}' since the start", unit: Unit::One, kind: Integer, discrete: true },
+        LawOutput {
+            what: StopOutput::LastImpact,
+            suffix: "t_last_contact",
+            description: "Exact time of the latest contact onset at stop '{stop}' (the start time before the first)",
+            unit: Unit::Second,
+            kind: Real,
+            discrete: true,
+        },
+        LawOutput { what: StopOutput::StoredEnergy, suffix: "E_stored", description: "Elastic energy stored in stop '{stop}' in contact ({stored})", unit: Unit::Joule, kind: Real, discrete: false },
+        LawOutput {
+            what: StopOutput::DissipatedEnergy,
+            suffix: "E_dissipated",
+            description: "Energy dissipated in stop '{stop}' since the start (its dashpot, and the spring energy left when contact ends inside the surface)",
+            unit: Unit::Joule,
+            kind: Real,
+            discrete: false,
+        },
+    ]
+};
 
 /// Whether a function at its zero (value within noise) is closing: its
 /// slope is negative, or zero with the next visible derivative negative

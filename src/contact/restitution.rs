@@ -10,7 +10,8 @@ use nalgebra::{DMatrix, DVector};
 
 use serde::{Deserialize, Serialize};
 
-use super::{Contact, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use super::{Contact, ContactLaw, LawOutput, ParamSpec, PhaseTerm, RangeKind, StopOutput, Switch, Watch};
+use crate::variables::OutputType;
 use crate::units::Unit;
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::Jet;
@@ -41,25 +42,83 @@ impl Restitution {
         },
     ];
 
-    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
-        [&mut self.restitution, &mut self.chatter_eps].into_iter().nth(k).expect("a restitution parameter")
+    /// The coefficient an impact at time `t` uses: `R`, or 0 when it ends a
+    /// chatter sequence (sooner than `eps` after the previous impact, or
+    /// too slow for `R` times its speed to be told from rounding,
+    /// `negligible`).
+    pub fn effective(&self, t: f64, previous_impact: Option<f64>, speed: f64, negligible: f64) -> f64 {
+        let since = previous_impact.map(|p| t - p);
+        let resolution = 16.0 * f64::EPSILON * t.abs().max(f64::MIN_POSITIVE);
+        let chatter = since.is_some_and(|dt| dt < self.chatter_eps || dt <= resolution) || self.restitution * speed <= negligible;
+        if chatter {
+            0.0
+        } else {
+            self.restitution
+        }
+    }
+}
+
+const OUTPUTS: &[LawOutput] = &[
+    LawOutput { what: StopOutput::Impacts, suffix: "impacts", description: "Number of impacts at stop '{stop}' since the start", unit: Unit::One, kind: OutputType::Integer, discrete: true },
+    LawOutput {
+        what: StopOutput::LastImpact,
+        suffix: "t_last_impact",
+        description: "Exact time of the latest impact at stop '{stop}' (the start time before the first)",
+        unit: Unit::Second,
+        kind: OutputType::Real,
+        discrete: true,
+    },
+    LawOutput { what: StopOutput::Sticking, suffix: "sticking", description: "Whether the structure is stuck to stop '{stop}'", unit: Unit::One, kind: OutputType::Boolean, discrete: true },
+    LawOutput {
+        what: StopOutput::Sticks,
+        suffix: "sticks",
+        description: "Number of times the structure stuck to stop '{stop}' since the start",
+        unit: Unit::One,
+        kind: OutputType::Integer,
+        discrete: true,
+    },
+    LawOutput {
+        what: StopOutput::StuckTime,
+        suffix: "stuck_time",
+        description: "Total time the structure has been stuck to stop '{stop}' since the start (exact, the current hold included)",
+        unit: Unit::Second,
+        kind: OutputType::Real,
+        discrete: false,
+    },
+    LawOutput {
+        what: StopOutput::Reaction,
+        suffix: "lambda",
+        description: "Reaction of stop '{stop}' while sticking (seed 000 eq. 33; <= 0 for a stop on the +w side), else 0",
+        unit: Unit::Newton,
+        kind: OutputType::Real,
+        discrete: false,
+    },
+];
+
+impl ContactLaw for Restitution {
+    fn parameters(&self) -> &'static [ParamSpec] {
+        Self::PARAMETERS
     }
 
-    pub fn term(&self, contact: Contact) -> PhaseTerm {
+    fn states(&self) -> &'static [Contact] {
+        &[Contact::Open, Contact::Held]
+    }
+
+    fn term(&self, contact: Contact) -> PhaseTerm {
         match contact {
             Contact::Held => PhaseTerm::Constraint,
             _ => PhaseTerm::None,
         }
     }
 
-    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
+    fn watches(&self, contact: Contact) -> &'static [Watch] {
         match contact {
             Contact::Held => &[Watch::Reaction],
             _ => &[Watch::Gap],
         }
     }
 
-    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet) -> Switch {
+    fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, _p: f64) -> Switch {
         match (contact, watch) {
             // The reaction already pulls (after a change of load), or is
             // about to: release. A reaction resting at zero (no load) keeps
@@ -82,19 +141,20 @@ impl Restitution {
         }
     }
 
-    /// The coefficient an impact at time `t` uses: `R`, or 0 when it ends a
-    /// chatter sequence (sooner than `eps` after the previous impact, or
-    /// too slow for `R` times its speed to be told from rounding,
-    /// `negligible`).
-    pub fn effective(&self, t: f64, previous_impact: Option<f64>, speed: f64, negligible: f64) -> f64 {
-        let since = previous_impact.map(|p| t - p);
-        let resolution = 16.0 * f64::EPSILON * t.abs().max(f64::MIN_POSITIVE);
-        let chatter = since.is_some_and(|dt| dt < self.chatter_eps || dt <= resolution) || self.restitution * speed <= negligible;
-        if chatter {
-            0.0
-        } else {
-            self.restitution
-        }
+    fn initial_contact(&self, _p: f64, _pd: f64) -> Contact {
+        Contact::Open
+    }
+
+    fn rigid(&self) -> bool {
+        true
+    }
+
+    fn restitution(&self, t: f64, previous_impact: Option<f64>, speed: f64, negligible: f64) -> Option<f64> {
+        Some(self.effective(t, previous_impact, speed, negligible))
+    }
+
+    fn outputs(&self) -> &'static [LawOutput] {
+        OUTPUTS
     }
 }
 

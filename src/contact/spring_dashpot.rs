@@ -13,8 +13,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{closing, Contact, Geometry, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
-use crate::solve::{Functional, Jet, ModalState};
+use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, Geometry, LawOutput, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use crate::solve::{Functional, Jet};
 use crate::units::Unit;
 
 /// Scene schema: `{"type": "spring_dashpot", "k": ..., "c": ..., "method":
@@ -93,19 +93,35 @@ impl SpringDashpot {
             tunable: true,
         },
     ];
+}
 
-    pub fn value_mut(&mut self, k: usize) -> &mut f64 {
-        [&mut self.k, &mut self.c].into_iter().nth(k).expect("a spring-dashpot parameter")
+impl ContactLaw for SpringDashpot {
+    fn parameters(&self) -> &'static [ParamSpec] {
+        Self::PARAMETERS
     }
 
-    pub fn term(&self, contact: Contact) -> PhaseTerm {
+    fn validate(&self, path: &str) -> Result<(), String> {
+        if !self.method.is_fim() && self.c != 0.0 {
+            return Err(format!(
+                "{path}.c = {}: mode transfer (method {:?}) models a spring stop alone: c must be 0 (use method \"fim\" for a dashpot)",
+                self.c, self.method
+            ));
+        }
+        Ok(())
+    }
+
+    fn states(&self) -> &'static [Contact] {
+        COMPLIANT_STATES
+    }
+
+    fn term(&self, contact: Contact) -> PhaseTerm {
         match contact {
             Contact::Pressed => PhaseTerm::SpringDashpot { k: self.k, c: self.c },
             _ => PhaseTerm::None,
         }
     }
 
-    pub fn watches(&self, contact: Contact) -> &'static [Watch] {
+    fn watches(&self, contact: Contact) -> &'static [Watch] {
         match contact {
             Contact::Pressed => &[Watch::Force],
             Contact::Penetrated => &[Watch::NegatedForce, Watch::Penetration],
@@ -113,36 +129,13 @@ impl SpringDashpot {
         }
     }
 
-    /// `k p + c p'` as a functional of the modal state.
-    pub fn force_functional(&self, g: &Geometry) -> Functional {
-        // Without a dashpot the force is a displacement functional, which
-        // the free-flight search evaluates as an increment from the anchor.
-        let qd = (self.c != 0.0).then(|| &g.w * (self.c * g.side));
-        Functional { offset: -self.k * g.gap, q: &g.w * (self.k * g.side), qd, f: None }
-    }
-
-    pub fn force(&self, g: &Geometry, state: &ModalState) -> f64 {
-        (self.k * g.penetration(&state.q) + self.c * g.penetration_rate(&state.qd)).max(0.0)
-    }
-
-    pub fn initial_contact(&self, g: &Geometry, state: &ModalState) -> Contact {
-        let p = g.penetration(&state.q);
-        if p <= 0.0 {
-            Contact::Open
-        } else if self.k * p + self.c * g.penetration_rate(&state.qd) > 0.0 {
-            Contact::Pressed
-        } else {
-            Contact::Penetrated
-        }
-    }
-
-    pub fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, g: &Geometry, state: &ModalState) -> Switch {
+    fn on_zero(&self, contact: Contact, watch: Watch, jet: &Jet, p: f64) -> Switch {
         match (contact, watch) {
             // The gap closes (or rests closed with the load pressing on:
             // the force grows from zero).
             (Contact::Open, Watch::Gap) if closing(jet, true) => Switch::To(Contact::Pressed),
             (Contact::Pressed, Watch::Force) if closing(jet, false) => {
-                if self.c > 0.0 && g.penetration(&state.q) > 0.0 {
+                if self.c > 0.0 && p > 0.0 {
                     Switch::To(Contact::Penetrated)
                 } else {
                     Switch::To(Contact::Open)
@@ -152,5 +145,64 @@ impl SpringDashpot {
             (Contact::Penetrated, Watch::Penetration) if closing(jet, false) => Switch::To(Contact::Open),
             _ => Switch::Stay,
         }
+    }
+
+    fn initial_contact(&self, p: f64, pd: f64) -> Contact {
+        if p <= 0.0 {
+            Contact::Open
+        } else if self.k * p + self.c * pd > 0.0 {
+            Contact::Pressed
+        } else {
+            Contact::Penetrated
+        }
+    }
+
+    fn raw_force(&self, p: f64, pd: f64, _onset_speed: f64) -> (f64, f64, f64) {
+        (self.k * p + self.c * pd, self.k, self.c)
+    }
+
+    fn spring_force(&self, p: f64) -> (f64, f64) {
+        (self.k * p, self.k)
+    }
+
+    /// `k p + c p'` as a functional of the modal state.
+    fn force_functional(&self, g: &Geometry) -> Option<Functional> {
+        // Without a dashpot the force is a displacement functional, which
+        // the free-flight search evaluates as an increment from the anchor.
+        let qd = (self.c != 0.0).then(|| &g.w * (self.c * g.side));
+        Some(Functional { offset: -self.k * g.gap, q: &g.w * (self.k * g.side), qd, f: None })
+    }
+
+    fn dashpot(&self) -> Option<f64> {
+        (self.c > 0.0).then_some(self.c)
+    }
+
+    fn stored_energy(&self, contact: Contact, p: f64) -> f64 {
+        match contact {
+            Contact::Pressed => 0.5 * self.k * p.max(0.0).powi(2),
+            _ => 0.0,
+        }
+    }
+
+    /// `v sqrt(m / k)`, from `k p^2 / 2 = m v^2 / 2`.
+    fn depth(&self, speed: f64, inverse_mass: f64) -> f64 {
+        speed / (self.k * inverse_mass).sqrt()
+    }
+
+    /// A spring released inside the surface keeps `k p^2 / 2`.
+    fn energy_left_at_release(&self, p: f64) -> f64 {
+        0.5 * self.k * p * p
+    }
+
+    fn mode_transfer(&self) -> Option<(f64, ContactMethod, TransferDamping)> {
+        (!self.method.is_fim()).then_some((self.k, self.method, self.transfer_damping))
+    }
+
+    fn outputs(&self) -> &'static [LawOutput] {
+        COMPLIANT_OUTPUTS
+    }
+
+    fn formulas(&self) -> (&'static str, &'static str) {
+        ("k p + c p'", "k p^2 / 2")
     }
 }

@@ -8,7 +8,7 @@ use std::fmt::Write;
 use crate::component::Component;
 
 use super::logging::CATEGORIES;
-use crate::interface::Unit;
+use crate::variables::Unit;
 
 use super::variables::{Causality, VarType, Variability, VariableTable};
 
@@ -31,7 +31,7 @@ pub fn model_description(scene: &Component) -> String {
         x,
         r#"<fmiModelDescription fmiVersion="2.0" modelName="{id}" guid="{}" description="{}" generationTool="beamstop {}" variableNamingConvention="structured" numberOfEventIndicators="0">"#,
         scene.guid(),
-        escape(scene.description()),
+        escape(&scene.description()),
         env!("CARGO_PKG_VERSION"),
     );
     let _ = writeln!(

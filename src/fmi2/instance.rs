@@ -7,8 +7,9 @@
 
 use std::path::Path;
 
-use crate::component::{Component, Run};
-use crate::readout::Value;
+use crate::component::Component;
+use crate::kind::{EventRecord, Run};
+use crate::variables::Value;
 
 use super::logging::Logger;
 use super::state_machine::{Function, ModelState};
@@ -24,7 +25,7 @@ pub struct Snapshot {
     pub inputs: Vec<f64>,
     pub start_time: f64,
     pub stop_time: Option<f64>,
-    pub sim: Option<Run>,
+    pub sim: Option<Box<dyn Run>>,
     pub last_successful_time: f64,
     pub terminated: bool,
 }
@@ -41,11 +42,11 @@ pub struct Instance {
     machine: ModelState,
     start_time: f64,
     stop_time: Option<f64>,
-    sim: Option<Run>,
+    sim: Option<Box<dyn Run>>,
     /// In initialization mode, a simulation built from the current values
     /// to answer fmi2GetReal on outputs, or why it cannot be built (kept so
     /// that a failure is not recomputed at every read); cleared by any set.
-    provisional: Option<Result<Run, String>>,
+    provisional: Option<Result<Box<dyn Run>, String>>,
     last_successful_time: f64,
     terminated: bool,
 }
@@ -81,7 +82,7 @@ impl Instance {
             ));
         }
         let table = VariableTable::new(&scene);
-        let inputs = vec![0.0; table.inputs.len()];
+        let inputs = vec![0.0; table.interface.inputs.len()];
         Ok(Instance {
             logger,
             guid: expected,
@@ -163,7 +164,7 @@ impl Instance {
         Ok(())
     }
 
-    fn build_simulation(&self) -> Result<Run, String> {
+    fn build_simulation(&self) -> Result<Box<dyn Run>, String> {
         let mut sim = self.scene.start(self.start_time, &self.inputs)?;
         sim.set_event_recording(self.logger.wants("logEvents"));
         Ok(sim)
@@ -234,18 +235,18 @@ impl Instance {
     }
 
     /// The simulation that answers output reads in this state.
-    fn reading_simulation(&mut self, f: Function) -> CallResult<&Run> {
+    fn reading_simulation(&mut self, f: Function) -> CallResult<&dyn Run> {
         if self.machine == ModelState::InitializationMode {
             if self.provisional.is_none() {
                 self.provisional = Some(self.build_simulation());
             }
             return match self.provisional.as_ref() {
-                Some(Ok(sim)) => Ok(sim),
+                Some(Ok(sim)) => Ok(sim.as_ref()),
                 Some(Err(m)) => Err(self.fail(&format!("{}: outputs cannot be computed: {m}", f.name()))),
                 None => unreachable!("set above"),
             };
         }
-        match self.sim.as_ref() {
+        match self.sim.as_deref() {
             Some(sim) => Ok(sim),
             None => Err(self.fail(&format!("{}: no simulation (initialisation failed)", f.name()))),
         }
@@ -254,12 +255,9 @@ impl Instance {
     fn read(&mut self, f: Function, vr: u32, ty: VarType) -> CallResult<Value> {
         let binding = self.variable(f, vr, ty)?.binding;
         Ok(match binding {
-            Binding::Parameter(i) => Value::Real(self.scene.get(self.table.parameters[i].key)),
+            Binding::Parameter(i) => Value::Real(self.scene.get(i)),
             Binding::Input(i) => Value::Real(self.inputs[i]),
-            Binding::Output(i) => {
-                let key = self.table.outputs[i].key;
-                self.reading_simulation(f)?.evaluate(key)
-            }
+            Binding::Output(i) => self.reading_simulation(f)?.evaluate(i),
         })
     }
 
@@ -315,24 +313,24 @@ impl Instance {
             let v = self.variable(f, *vr, VarType::Real)?;
             match v.binding {
                 Binding::Parameter(i) => {
-                    let p = &self.table.parameters[i];
+                    let p = &self.table.interface.parameters[i];
                     let after_init = !matches!(self.machine, ModelState::Instantiated | ModelState::InitializationMode);
                     if after_init && !p.tunable {
                         return Err(self.fail(&format!(
                             "fmi2SetReal: '{}' = {value:?}: '{}' is a fixed parameter, settable only before fmi2ExitInitializationMode (or after fmi2Reset); it stays {}",
                             p.name,
                             p.name,
-                            self.scene.get(p.key)
+                            self.scene.get(i)
                         )));
                     }
                     if let Err(m) = p.range.check(&format!("'{}'", p.name), *value) {
                         return Err(self.fail(&format!("fmi2SetReal: {m}")));
                     }
-                    scene.set(p.key, *value);
+                    scene.set(i, *value);
                     parameters_changed = true;
                 }
                 Binding::Input(i) => {
-                    let input = &self.table.inputs[i];
+                    let input = &self.table.interface.inputs[i];
                     if let Err(m) = input.range.check(&format!("input '{}'", input.name), *value) {
                         return Err(self.fail(&format!("fmi2SetReal: {m}")));
                     }
@@ -353,9 +351,12 @@ impl Instance {
                 }
             }
             Some(sim) if parameters_changed || inputs_changed => {
+                if let Err(e) = scene.validate() {
+                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                }
                 // Applied to a copy first: a refused change leaves the run as it was.
                 let mut updated = sim.clone();
-                let model_applied = if parameters_changed { scene.retune(&mut updated) } else { Ok(()) };
+                let model_applied = if parameters_changed { scene.retune(updated.as_mut()) } else { Ok(()) };
                 if let Err(e) = model_applied.and_then(|()| updated.set_inputs(&inputs)) {
                     return Err(self.fail(&format!("fmi2SetReal: {e}")));
                 }
@@ -415,25 +416,25 @@ impl Instance {
                 self.last_successful_time = target;
                 Ok(())
             }
-            Err(e) if e.recoverable => {
+            Err(e) if e.recoverable() => {
                 self.last_successful_time = reached;
                 self.machine = ModelState::StepFailed;
-                self.logger.status(Status::Discard, &format!("fmi2DoStep: {}; the step was computed up to t = {reached}", e.message));
+                self.logger.status(Status::Discard, &format!("fmi2DoStep: {e}; the step was computed up to t = {reached}"));
                 Err(Status::Discard)
             }
             Err(e) => {
                 self.machine = ModelState::Error;
-                Err(self.fail(&format!("fmi2DoStep: {}", e.message)))
+                Err(self.fail(&format!("fmi2DoStep: {e}")))
             }
         }
     }
 
-    fn log_events(&self, events: &[String]) {
+    fn log_events(&self, events: &[EventRecord]) {
         if !self.logger.wants("logEvents") {
             return;
         }
-        for text in events {
-            self.logger.category("logEvents", text);
+        for e in events {
+            self.logger.category("logEvents", &e.description);
         }
     }
 
@@ -448,7 +449,7 @@ impl Instance {
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
             machine: self.machine,
-            parameters: self.table.parameters.iter().map(|p| self.scene.get(p.key)).collect(),
+            parameters: (0..self.table.interface.parameters.len()).map(|i| self.scene.get(i)).collect(),
             inputs: self.inputs.clone(),
             start_time: self.start_time,
             stop_time: self.stop_time,
@@ -460,8 +461,8 @@ impl Instance {
 
     pub fn restore(&mut self, s: &Snapshot) {
         let mut scene = self.packaged.clone();
-        for (p, v) in self.table.parameters.iter().zip(&s.parameters) {
-            scene.set(p.key, *v);
+        for (i, v) in s.parameters.iter().enumerate() {
+            scene.set(i, *v);
         }
         self.scene = scene;
         self.machine = s.machine;
@@ -479,8 +480,8 @@ impl Instance {
     /// serialized states).
     pub fn scene_with(&self, parameters: &[f64]) -> Component {
         let mut scene = self.packaged.clone();
-        for (p, v) in self.table.parameters.iter().zip(parameters) {
-            scene.set(p.key, *v);
+        for (i, v) in parameters.iter().enumerate() {
+            scene.set(i, *v);
         }
         scene
     }

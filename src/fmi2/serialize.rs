@@ -63,8 +63,8 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     let last_successful_time = r.f64()?;
     let terminated = r.u8()? != 0;
     let table = instance.table();
-    let parameters = r.f64s(table.parameters.len(), "parameters")?;
-    let inputs = r.f64s(table.inputs.len(), "inputs")?;
+    let parameters = r.f64s(table.interface.parameters.len(), "parameters")?;
+    let inputs = r.f64s(table.interface.inputs.len(), "inputs")?;
     let has_sim = r.u8()? != 0;
     match machine {
         ModelState::Error | ModelState::Fatal => {
@@ -91,7 +91,7 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
             "serialized state: last successful time = {last_successful_time}: must be finite and >= the start time {start_time}"
         ));
     }
-    for (input, value) in table.inputs.iter().zip(&inputs) {
+    for (input, value) in table.interface.inputs.iter().zip(&inputs) {
         input.range.check(&format!("serialized state: input '{}'", input.name), *value)?;
     }
     // The parameters are checked as fmi2SetReal checks them in the same

@@ -2,8 +2,8 @@
 //! value references, causality, variability, start values. One table
 //! serves the instance (get/set) and the modelDescription.xml.
 
-use crate::component::{AnyInput, AnyOutput, AnyParam, Component};
-use crate::interface::{Input, Output, OutputType, Parameter, Unit};
+use crate::component::Component;
+use crate::variables::{OutputType, Unit, Variables};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum VarType {
@@ -64,18 +64,15 @@ pub struct Variable {
 /// The interface of a scene, with its variables numbered by value reference.
 #[derive(Clone, Debug)]
 pub struct VariableTable {
-    pub parameters: Vec<Parameter<AnyParam>>,
-    pub inputs: Vec<Input<AnyInput>>,
-    pub outputs: Vec<Output<AnyOutput>>,
+    pub interface: Variables,
     /// Indexed by value reference.
     pub variables: Vec<Variable>,
 }
 
 impl VariableTable {
     pub fn new(scene: &Component) -> Self {
-        let parameters = scene.parameters();
-        let inputs = scene.inputs();
-        let outputs = scene.outputs();
+        let interface = scene.variables().clone();
+        let Variables { parameters, inputs, outputs } = &interface;
         let mut variables = Vec::new();
         let finite = |x: f64| if x.is_finite() { Some(x) } else { None };
         for (i, p) in parameters.iter().enumerate() {
@@ -87,7 +84,7 @@ impl VariableTable {
                 ty: VarType::Real,
                 causality: Causality::Parameter,
                 variability: if p.tunable { Variability::Tunable } else { Variability::Fixed },
-                start: Some(scene.get(p.key)),
+                start: Some(scene.get(i)),
                 // FMI bounds are inclusive: an open end becomes the next double inside.
                 min: finite(p.range.min).map(|m| if p.range.min_open { m.next_up() } else { m }),
                 max: finite(p.range.max).map(|m| if p.range.max_open { m.next_down() } else { m }),
@@ -130,7 +127,7 @@ impl VariableTable {
                 binding: Binding::Output(i),
             });
         }
-        VariableTable { parameters, inputs, outputs, variables }
+        VariableTable { interface, variables }
     }
 
     pub fn get(&self, vr: u32) -> Option<&Variable> {

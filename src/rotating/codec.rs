@@ -10,19 +10,20 @@ use std::sync::Arc;
 
 use super::model::RotatingModel;
 use super::sim::{RotatingSimulation, RotatingStats, REANCHOR_AFTER};
-use super::system::{ContactState, Phase};
-use super::RotatingError;
+use super::system::Phase;
 use crate::codec::{Reader, Writer};
+use crate::contact::Contact;
 use crate::solve::radau::{Radau, RadauOptions};
 
 /// Version of the encoding below; bump on any change.
-pub const ROTATING_STATE_VERSION: u32 = 1;
+/// 2: the shared contact-state codes (open 0, pressed 2, penetrated 3).
+pub const ROTATING_STATE_VERSION: u32 = 2;
 
-fn bad(m: String) -> RotatingError {
-    RotatingError::Decode(m)
+fn bad(m: String) -> String {
+    m
 }
 
-fn num(r: &mut Reader, what: &str) -> Result<f64, RotatingError> {
+fn num(r: &mut Reader, what: &str) -> Result<f64, String> {
     let v = r.f64().map_err(|m| bad(format!("rotating state: {m}")))?;
     if v.is_finite() {
         Ok(v)
@@ -32,8 +33,8 @@ fn num(r: &mut Reader, what: &str) -> Result<f64, RotatingError> {
 }
 
 impl RotatingSimulation {
-    pub fn encode(&self) -> Vec<u8> {
-        let mut w = Writer(Vec::new());
+    /// Appends the state (see [`Self::decode`]).
+    pub fn encode(&self, w: &mut Writer) {
         w.u32(ROTATING_STATE_VERSION);
         w.u32(self.model.n_modes() as u32);
         w.u8(self.model.prescribed().is_some() as u8);
@@ -49,13 +50,11 @@ impl RotatingSimulation {
         w.f64(self.impulse_at_start);
         w.f64s(self.anchor.as_slice());
         w.f64s(self.current.as_slice());
-        w.0
     }
 
     /// A run of `model` restored from [`Self::encode`]'s bytes; refused,
     /// with a message naming the field, unless the model can be in it.
-    pub fn decode(model: Arc<RotatingModel>, bytes: &[u8]) -> Result<Self, RotatingError> {
-        let mut r = Reader::new(bytes);
+    pub fn decode(model: Arc<RotatingModel>, r: &mut Reader) -> Result<Self, String> {
         let e = |m: String| bad(format!("rotating state: {m}"));
         let version = r.u32().map_err(e)?;
         if version != ROTATING_STATE_VERSION {
@@ -71,23 +70,22 @@ impl RotatingSimulation {
             )));
         }
         let code = r.u8().map_err(e)?;
-        let contact = ContactState::from_code(code).ok_or_else(|| bad(format!("rotating state: contact code {code} is not one of 0..=2")))?;
-        let time = num(&mut r, "time")?;
-        let anchor_time = num(&mut r, "anchor time")?;
-        let torque = num(&mut r, "torque")?;
-        let onset_speed = num(&mut r, "onset speed")?;
+        let contact = Contact::from_code(code)
+            .filter(|c| *c != Contact::Held)
+            .ok_or_else(|| bad(format!("rotating state: contact code {code} is not one of 0 (open), 2 (pressed), 3 (penetrated)")))?;
+        let time = num(r, "time")?;
+        let anchor_time = num(r, "anchor time")?;
+        let torque = num(r, "torque")?;
+        let onset_speed = num(r, "onset speed")?;
         let onsets = r.u64().map_err(e)?;
-        let impulse_mark = num(&mut r, "impulse mark")?;
-        let peak_before_anchor = num(&mut r, "peak force")?;
-        let contact_start = num(&mut r, "contact start")?;
-        let impulse_at_start = num(&mut r, "impulse at the contact's start")?;
+        let impulse_mark = num(r, "impulse mark")?;
+        let peak_before_anchor = num(r, "peak force")?;
+        let contact_start = num(r, "contact start")?;
+        let impulse_at_start = num(r, "impulse at the contact's start")?;
         let phase = Phase { model: model.clone(), contact, onset_speed, torque };
         let dim = phase.dim();
         let anchor = nalgebra::DVector::from_vec(r.f64s(dim, "anchor state entries").map_err(e)?);
         let current = nalgebra::DVector::from_vec(r.f64s(dim, "current state entries").map_err(e)?);
-        if r.remaining() != 0 {
-            return Err(bad(format!("rotating state: {} bytes left over after the state", r.remaining())));
-        }
         for (what, v) in [("anchor", &anchor), ("current", &current)] {
             if let Some(i) = v.iter().position(|x| !x.is_finite()) {
                 return Err(bad(format!("rotating state: {what}[{i}] = {}: must be finite", v[i])));
@@ -105,7 +103,7 @@ impl RotatingSimulation {
         if model.prescribed().is_some() && torque != 0.0 {
             return Err(bad(format!("rotating state: torque = {torque} on a prescribed hub: allowed value 0")));
         }
-        if model.surface.is_none() && (contact != ContactState::Open || onsets > 0) {
+        if model.surface.is_none() && (contact != Contact::Open || onsets > 0) {
             return Err(bad("rotating state: in contact, but the model has no surface".into()));
         }
         let x = phase.extras();
@@ -115,7 +113,7 @@ impl RotatingSimulation {
                 "rotating state: impulse {impulse} must be >= 0 and >= the impulse at the contact's start, {impulse_at_start}"
             )));
         }
-        if onsets == 0 && contact != ContactState::Open {
+        if onsets == 0 && contact != Contact::Open {
             return Err(bad(format!("rotating state: {contact:?} with no contact onset counted")));
         }
         // The contact state agrees with the penetration at the anchor and now.
@@ -125,19 +123,19 @@ impl RotatingSimulation {
             let point = phase.contact_point(&z, &zd);
             let gamma = point.penetration;
             let agrees = match contact {
-                ContactState::Open => gamma <= level,
-                ContactState::Pressed | ContactState::Penetrated => gamma >= -level,
+                Contact::Open | Contact::Held => gamma <= level,
+                Contact::Pressed | Contact::Penetrated => gamma >= -level,
             };
             if !agrees {
                 return Err(bad(format!("rotating state: {contact:?} with penetration {gamma:e} at the {what} (allowed level {level:e})")));
             }
             // In contact, the law's force agrees with the state: pressed
             // while it pushes, penetrated while it would pull.
-            if let (Some(s), true) = (&model.surface, contact != ContactState::Open) {
+            if let (Some(s), true) = (&model.surface, contact != Contact::Open) {
                 let (raw, dp, dpd) = s.law.raw_force(gamma.max(0.0), point.rate, onset_speed);
                 let force_level = dp.abs() * level + dpd.abs() * 1e-9 * point.rate.abs().max(f64::MIN_POSITIVE) + 1e-12 * raw.abs();
                 let pushes = match contact {
-                    ContactState::Pressed => raw >= -force_level,
+                    Contact::Pressed => raw >= -force_level,
                     _ => raw <= force_level,
                 };
                 if !pushes {
@@ -145,7 +143,7 @@ impl RotatingSimulation {
                         "rotating state: {contact:?} at the {what}, but the contact law's force there is {raw:e} N \
                          (penetration {gamma:e} m, rate {:e} m/s): {}",
                         point.rate,
-                        if contact == ContactState::Pressed { "a pressed contact pushes" } else { "a penetrated contact's law would push" }
+                        if contact == Contact::Pressed { "a pressed contact pushes" } else { "a penetrated contact's law would push" }
                     )));
                 }
             }
@@ -173,7 +171,7 @@ impl RotatingSimulation {
             stats: RotatingStats::default(),
             steps_since_anchor: 0,
         };
-        sim.start_phase()?;
+        sim.start_phase().map_err(|e| format!("rotating state: {e}"))?;
         // Replay: the steps the run took from its anchor up to its time.
         while sim.step.as_ref().map_or(sim.anchor_time < time, |s| s.t1 < time) {
             if sim.steps_since_anchor >= REANCHOR_AFTER {
@@ -181,9 +179,10 @@ impl RotatingSimulation {
                     "rotating state: the time {time} lies more than {REANCHOR_AFTER} integration steps after the anchor {anchor_time}"
                 )));
             }
-            sim.take_step()?;
-            if let Some((te, _)) = sim.step.as_ref().and_then(|s| s.switch) {
-                if te <= time {
+            sim.take_step().map_err(|e| format!("rotating state: {e}"))?;
+            if let Some((te, _, _)) = sim.step.as_ref().and_then(|s| s.switch) {
+                // At the time: a switch the run stopped before (pending).
+                if te < time {
                     return Err(bad(format!("rotating state: a contact switch at t = {te} lies before the time {time} but after the anchor")));
                 }
             }

@@ -6,15 +6,14 @@ use std::f64::consts::TAU;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use super::spec::{HubDrive, OrderSpec, Profile, RotatingSpec};
-use super::RotatingError;
-use crate::contact::Hertz;
+use crate::contact::Law;
 use crate::structure::rotating::{Order, Plane, RotatingBeam, RotatingBeamParams};
 
 /// The plane and its law.
 #[derive(Clone, Debug)]
 pub struct Surface {
     pub plane: Plane,
-    pub law: Hertz,
+    pub law: Law,
 }
 
 /// Kane, Ryan & Banerjee's spin-up profile.
@@ -65,8 +64,9 @@ pub struct RotatingModel {
 }
 
 impl RotatingModel {
-    pub fn new(spec: &RotatingSpec) -> Result<Self, RotatingError> {
-        spec.validate().map_err(RotatingError::Spec)?;
+    /// The model of a scene; the error (a scene that cannot form one) names the field.
+    pub fn new(spec: &RotatingSpec) -> Result<Self, String> {
+        spec.validate()?;
         let n = spec.n_modes;
         let (mu, ei) = spec.section();
         let order = match spec.order {
@@ -84,12 +84,12 @@ impl RotatingModel {
             n_modes: n,
             order,
         };
-        let beam = RotatingBeam::new(params).map_err(|e| RotatingError::Spec(format!("rotating scene '{}': {e}", spec.name)))?;
+        let beam = RotatingBeam::new(params).map_err(|e| format!("rotating scene '{}': {e}", spec.name))?;
         let surface = match &spec.surface {
             None => None,
             Some(s) => Some(Surface {
-                plane: Plane::new(s.normal, s.point).map_err(|e| RotatingError::Spec(format!("rotating scene '{}': surface: {e}", spec.name)))?,
-                law: s.law.hertz().clone(),
+                plane: Plane::new(s.normal, s.point).map_err(|e| format!("rotating scene '{}': surface: {e}", spec.name))?,
+                law: s.law.clone(),
             }),
         };
         let drive = match spec.hub {
@@ -100,7 +100,7 @@ impl RotatingModel {
             Order::First => (&beam.m - &beam.d, beam.c_l.clone(), beam.s.clone()),
             Order::Zeroth => (beam.m.clone(), DMatrix::zeros(n, n), DMatrix::zeros(n, n)),
         };
-        let m_chol = Cholesky::new(beam.m.clone()).ok_or_else(|| RotatingError::Spec("modal mass matrix not positive definite".into()))?;
+        let m_chol = Cholesky::new(beam.m.clone()).ok_or_else(|| format!("rotating scene '{}': modal mass matrix not positive definite", spec.name))?;
         let vec_or_zero = |v: &Vec<f64>| if v.is_empty() { DVector::zeros(n) } else { DVector::from_column_slice(v) };
         let (b, bd) = (vec_or_zero(&spec.initial.b), vec_or_zero(&spec.initial.b_dot));
         let mut initial_z = DVector::zeros(n + 1);

@@ -33,11 +33,14 @@ use std::sync::Arc;
 
 use nalgebra::{Cholesky, DVector};
 
-use super::events::{StepCurve, Watch};
+use super::events::StepCurve;
 use super::model::RotatingModel;
 use super::spec::RotatingSpec;
-use super::system::{ContactPoint, ContactState, Phase};
-use super::RotatingError;
+use super::system::{ContactPoint, Phase};
+use crate::contact::{Contact, Switch, Watch};
+use crate::error::SimError;
+use crate::kind::Reached;
+use crate::solve::Jet;
 use crate::solve::radau::{Radau, RadauOptions, Tol};
 
 /// What happened at an event.
@@ -96,7 +99,8 @@ pub(super) struct Step {
     pub t0: f64,
     pub t1: f64,
     pub y0: DVector<f64>,
-    pub switch: Option<(f64, Watch)>,
+    /// Its time, the watch whose zero it is and the bracketing chord's slope.
+    pub switch: Option<(f64, Watch, f64)>,
     pub peak: Option<(f64, f64)>,
 }
 
@@ -147,18 +151,18 @@ pub(super) fn full_order_state(phase: &Phase, options: &RadauOptions, t0: f64, y
 
 impl RotatingSimulation {
     /// A run of `spec` from its initial state at `start_time`.
-    pub fn from_spec(spec: &RotatingSpec, start_time: f64) -> Result<Self, RotatingError> {
-        Self::new(Arc::new(RotatingModel::new(spec)?), start_time)
+    pub fn from_spec(spec: &RotatingSpec, start_time: f64) -> Result<Self, SimError> {
+        Self::new(Arc::new(RotatingModel::new(spec).map_err(SimError::Scene)?), start_time)
     }
 
     /// A run from the model's initial state at `start_time`; a tip inside
     /// the surface, or on it and moving in, starts in contact (an onset).
-    pub fn new(model: Arc<RotatingModel>, start_time: f64) -> Result<Self, RotatingError> {
+    pub fn new(model: Arc<RotatingModel>, start_time: f64) -> Result<Self, SimError> {
         if !start_time.is_finite() {
-            return Err(RotatingError::NonFiniteInput { what: "start time", value: start_time });
+            return Err(SimError::NonFinite { what: "start time", value: start_time });
         }
         let n = model.n_modes();
-        let phase = Phase { model: model.clone(), contact: ContactState::Open, onset_speed: 0.0, torque: 0.0 };
+        let phase = Phase { model: model.clone(), contact: Contact::Open, onset_speed: 0.0, torque: 0.0 };
         let mut y = DVector::zeros(phase.dim());
         match model.prescribed() {
             None => {
@@ -172,7 +176,7 @@ impl RotatingSimulation {
         }
         let options = RadauOptions::default();
         let mut probe = phase.clone();
-        let solver = Radau::new(&mut probe, start_time, &y, options.clone()).map_err(|e| RotatingError::Integration { time: start_time, message: e.to_string() })?;
+        let solver = Radau::new(&mut probe, start_time, &y, options.clone()).map_err(|e| integration(start_time, e.to_string()))?;
         let mut sim = RotatingSimulation {
             model: model.clone(),
             phase,
@@ -193,19 +197,19 @@ impl RotatingSimulation {
             stats: RotatingStats::default(),
             steps_since_anchor: 0,
         };
-        let mut contact = ContactState::Open;
+        let mut contact = Contact::Open;
         if let Some(s) = &model.surface {
             let (z, zd) = sim.phase.coords(start_time, &y);
             let c = sim.phase.contact_point(&z, &zd);
             let speed = model.spec.speed_range().max;
-            let limit = (1.25 * model.spec.beam_inertia() * speed * speed / s.law.stiffness).powf(0.4);
+            let limit = s.law.depth(speed, 1.0 / model.spec.beam_inertia());
             if c.penetration > limit {
-                return Err(RotatingError::InitialPenetration { penetration: c.penetration, limit });
+                return Err(SimError::InitialPenetration { penetration: c.penetration, limit, field: "initial.theta" });
             }
             if c.penetration > 0.0 || (c.penetration == 0.0 && c.rate > 0.0) {
                 sim.phase.onset_speed = c.rate.max(0.0);
                 let raw = s.law.raw_force(c.penetration, c.rate, sim.phase.onset_speed).0;
-                contact = if raw > 0.0 || c.penetration == 0.0 { ContactState::Pressed } else { ContactState::Penetrated };
+                contact = if raw > 0.0 || c.penetration == 0.0 { Contact::Pressed } else { Contact::Penetrated };
                 sim.onsets = 1;
                 sim.events.push(RotatingEvent { time: start_time, kind: RotatingEventKind::Onset { speed: c.rate } });
             }
@@ -228,7 +232,7 @@ impl RotatingSimulation {
         let mut h_max = f64::INFINITY;
         if let Some(s) = &m.surface {
             h_max = m.shortest_period();
-            if self.phase.contact != ContactState::Open {
+            if self.phase.contact != Contact::Open {
                 let c = self.phase.contact_point(&z, &zd);
                 let g = m.beam.contact_generalized_force(&z, &s.plane, 1.0);
                 let inv_mass = match m.prescribed() {
@@ -243,9 +247,9 @@ impl RotatingSimulation {
                     let v0 = self.phase.onset_speed.max(c.rate.abs());
                     // No deeper than the tip's radius (a vanishing K would
                     // give an infinite depth).
-                    let depth = (1.25 * mass * v0 * v0 / s.law.stiffness).powf(0.4).min(ell);
+                    let depth = s.law.depth(v0, inv).min(ell);
                     let p = c.penetration.max(depth).max(1e-9 * length);
-                    let omega_c = (1.5 * s.law.stiffness * p.sqrt() / mass).sqrt();
+                    let omega_c = (s.law.raw_force(p, 0.0, self.phase.onset_speed).1 / mass).sqrt();
                     if omega_c > 0.0 && omega_c.is_finite() {
                         h_max = h_max.min(0.25 * std::f64::consts::TAU / omega_c);
                     }
@@ -271,7 +275,7 @@ impl RotatingSimulation {
         }
         // Free flight reuses the Jacobian while Newton converges fast
         // (RADAU5's rule); contact refreshes it at every step.
-        let refresh = self.phase.contact != ContactState::Open;
+        let refresh = self.phase.contact != Contact::Open;
         RadauOptions {
             rtol: Tol::Scalar(tol),
             atol: Tol::Vector(atol),
@@ -283,7 +287,7 @@ impl RotatingSimulation {
     }
 
     /// A new phase from `(t, y)` in `contact` (the time becomes `t`).
-    pub(super) fn restart(&mut self, t: f64, y: DVector<f64>, contact: ContactState) -> Result<(), RotatingError> {
+    pub(super) fn restart(&mut self, t: f64, y: DVector<f64>, contact: Contact) -> Result<(), SimError> {
         self.phase.contact = contact;
         let (z, zd) = self.phase.coords(t, &y);
         self.peak = self.peak.max(self.phase.contact_point(&z, &zd).force);
@@ -298,26 +302,26 @@ impl RotatingSimulation {
     }
 
     /// The integrator at the anchor (no step taken).
-    pub(super) fn start_phase(&mut self) -> Result<(), RotatingError> {
+    pub(super) fn start_phase(&mut self) -> Result<(), SimError> {
         let st = self.solver.stats();
         self.stats.rejected += st.rejected;
         self.options = self.phase_options(self.anchor_time, &self.anchor);
         self.step = None;
         self.solver = Radau::new(&mut self.phase, self.anchor_time, &self.anchor, self.options.clone())
-            .map_err(|e| RotatingError::Integration { time: self.anchor_time, message: e.to_string() })?;
+            .map_err(|e| integration(self.anchor_time, e.to_string()))?;
         Ok(())
     }
 
     /// One accepted step, its first switch and its peak force.
-    pub(super) fn take_step(&mut self) -> Result<(), RotatingError> {
+    pub(super) fn take_step(&mut self) -> Result<(), SimError> {
         let (t0, y0) = (self.solver.t(), self.solver.y().clone());
         let (a, b) = self
             .solver
             .step(&mut self.phase, f64::MAX)
-            .map_err(|e| RotatingError::Integration { time: t0, message: format!("{e} (contact {:?})", self.phase.contact) })?;
+            .map_err(|e| integration(t0, format!("{e} (contact {:?})", self.phase.contact)))?;
         self.stats.accepted += 1;
         self.steps_since_anchor += 1;
-        if self.phase.contact != ContactState::Open {
+        if self.phase.contact != Contact::Open {
             self.stats.contact_steps += 1;
         }
         let curve = StepCurve { phase: &self.phase, solver: &self.solver, t0: a, t1: b, y0: &y0 };
@@ -367,12 +371,28 @@ impl RotatingSimulation {
     }
 
     /// Advances to `t_end` through every switch on the way (including one at `t_end`).
-    pub fn advance_to(&mut self, t_end: f64) -> Result<(), RotatingError> {
+    pub fn advance_to(&mut self, t_end: f64) -> Result<(), SimError> {
+        self.advance(t_end, false).map(|_| ())
+    }
+
+    /// Advances to `t_end` or to the next switch before it, stopping there
+    /// before the switch ([`Self::apply_pending_events`] makes it). The
+    /// switch is part of the step a restore replays: a saved state keeps it.
+    pub fn advance_to_event(&mut self, t_end: f64) -> Result<Reached, SimError> {
+        self.advance(t_end, true)
+    }
+
+    /// Makes the switch at the current time (after [`Reached::Event`]).
+    pub fn apply_pending_events(&mut self) -> Result<(), SimError> {
+        self.advance(self.time, false).map(|_| ())
+    }
+
+    fn advance(&mut self, t_end: f64, stop_before_events: bool) -> Result<Reached, SimError> {
         if !t_end.is_finite() {
-            return Err(RotatingError::NonFiniteInput { what: "requested time", value: t_end });
+            return Err(SimError::NonFinite { what: "requested time", value: t_end });
         }
         if t_end < self.time {
-            return Err(RotatingError::Backwards { now: self.time, requested: t_end });
+            return Err(SimError::Backwards { now: self.time, requested: t_end });
         }
         if t_end > self.time {
             self.impulse_mark = self.impulse_total();
@@ -386,7 +406,7 @@ impl RotatingSimulation {
                 }
                 steps += 1;
                 if steps > self.model.spec.solver.max_steps_per_step {
-                    break Err(RotatingError::TooMuchWork { time: self.time, steps: steps - 1 });
+                    break Err(SimError::TooMuchWork { time: self.time, work: steps - 1, cap: "solver.max_steps_per_step, in Radau steps" });
                 }
                 if self.steps_since_anchor >= REANCHOR_AFTER {
                     let (t, y) = (self.solver.t(), self.solver.y().clone());
@@ -401,15 +421,20 @@ impl RotatingSimulation {
             let s = self.step.as_ref().expect("a step");
             let (t1, switch) = (s.t1, s.switch);
             match switch {
-                Some((te, watch)) if te <= t_end => {
+                Some((te, _, _)) if te <= t_end && stop_before_events => {
+                    self.pass_to(te);
+                    self.current = self.state_at(te);
+                    return Ok(Reached::Event(te));
+                }
+                Some((te, watch, slope)) if te <= t_end => {
                     self.pass_to(te);
                     count += 1;
                     self.stats.events += 1;
                     if count > self.model.spec.solver.max_events_per_step {
                         self.current = self.state_at(te);
-                        return Err(RotatingError::TooManyEvents { time: te, count });
+                        return Err(SimError::TooManyEvents { time: te, count });
                     }
-                    if let Err(e) = self.switch(te, watch) {
+                    if let Err(e) = self.switch(te, watch, slope) {
                         break Err(e);
                     }
                 }
@@ -421,50 +446,55 @@ impl RotatingSimulation {
             }
         };
         self.current = self.state_at(self.time);
-        result
+        result.map(|()| Reached::Time)
     }
 
-    /// The switch of `watch` at `te` (module doc).
-    fn switch(&mut self, te: f64, watch: Watch) -> Result<(), RotatingError> {
+    /// The switch of `watch` at `te` (module doc): the law decides the
+    /// next contact state.
+    fn switch(&mut self, te: f64, watch: Watch, slope: f64) -> Result<(), SimError> {
         let mut y = self.state_at(te);
         let (z, zd) = self.phase.coords(te, &y);
         let c = self.phase.contact_point(&z, &zd);
         let e = self.phase.extras();
-        let law = self.model.surface.as_ref().map(|s| s.law.clone()).expect("switches need a surface");
-        let (contact, kind) = match (self.phase.contact, watch) {
-            (ContactState::Open, Watch::Gap) => {
+        let law = &self.model.surface.as_ref().expect("switches need a surface").law;
+        let jet = Jet { d: [law.watched(watch, c.penetration, c.rate, self.phase.onset_speed).0.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 };
+        let from = self.phase.contact;
+        let to = match law.on_zero(from, watch, &jet, c.penetration) {
+            Switch::To(next) => next,
+            // The zero of a function the state watches always ends it here.
+            _ => if from == Contact::Open { Contact::Pressed } else { Contact::Open },
+        };
+        let kind = match (from, to) {
+            (Contact::Open, _) => {
                 self.phase.onset_speed = c.rate.max(0.0);
                 self.onsets += 1;
                 self.contact_start = te;
                 self.impulse_at_start = y[e];
                 self.peak = 0.0;
-                (ContactState::Pressed, RotatingEventKind::Onset { speed: c.rate })
+                RotatingEventKind::Onset { speed: c.rate }
             }
-            (ContactState::Pressed, Watch::Force) => {
-                y[e + 1] += law.stored_energy(c.penetration);
-                (ContactState::Penetrated, RotatingEventKind::PushEnd { penetration: c.penetration.max(0.0) })
+            (Contact::Pressed, Contact::Penetrated) => {
+                y[e + 1] += law.energy_left_at_release(c.penetration);
+                RotatingEventKind::PushEnd { penetration: c.penetration.max(0.0) }
             }
-            (ContactState::Penetrated, Watch::NegatedForce) => {
-                y[e + 1] -= law.stored_energy(c.penetration);
-                (ContactState::Pressed, RotatingEventKind::PushResumed)
+            (Contact::Penetrated, Contact::Pressed) => {
+                y[e + 1] -= law.energy_left_at_release(c.penetration);
+                RotatingEventKind::PushResumed
             }
-            (_, _) => (
-                ContactState::Open,
-                RotatingEventKind::Separation { peak_force: self.peak, duration: te - self.contact_start, impulse: y[e] - self.impulse_at_start },
-            ),
+            _ => RotatingEventKind::Separation { peak_force: self.peak, duration: te - self.contact_start, impulse: y[e] - self.impulse_at_start },
         };
         self.events.push(RotatingEvent { time: te, kind });
-        self.restart(te, y, contact)
+        self.restart(te, y, to)
     }
 
     /// Changes the hub torque (N m); a change restarts the integration at
     /// the current time. An error for a prescribed hub.
-    pub fn set_torque(&mut self, torque: f64) -> Result<(), RotatingError> {
+    pub fn set_torque(&mut self, torque: f64) -> Result<(), SimError> {
         if !torque.is_finite() {
-            return Err(RotatingError::NonFiniteInput { what: "torque", value: torque });
+            return Err(SimError::NonFinite { what: "torque", value: torque });
         }
         if self.model.prescribed().is_some() {
-            return Err(RotatingError::NotAnInput("torque: the hub's motion is prescribed (its torque is an output)".into()));
+            return Err(SimError::NotAnInput("torque: the hub's motion is prescribed (its torque is an output)".into()));
         }
         if torque == self.phase.torque {
             return Ok(());
@@ -518,7 +548,7 @@ impl RotatingSimulation {
         self.phase.contact_point(&z, &zd)
     }
 
-    pub fn contact_state(&self) -> ContactState {
+    pub fn contact_state(&self) -> Contact {
         self.phase.contact
     }
 
@@ -624,5 +654,15 @@ impl RotatingSimulation {
         let (z, zd) = self.coordinates();
         let c = self.phase.contact_point(&z, &zd);
         self.phase.hub_torque(self.time, &z, &zd, &c)
+    }
+}
+
+/// An integration failure, with what to change.
+fn integration(time: f64, message: String) -> SimError {
+    SimError::Integration {
+        time,
+        message: format!(
+            "{message}; loosen solver.tolerance, check the contact stiffness, or raise hub_inertia if the mass matrix lost definiteness"
+        ),
     }
 }

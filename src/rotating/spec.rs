@@ -20,8 +20,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::contact::{Hertz, HertzDamping};
-use crate::scene::Range;
+use crate::contact::{Law, RangeKind};
+use crate::variables::{Experiment, Range};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -54,7 +54,7 @@ pub struct RotatingSpec {
     #[serde(default)]
     pub solver: SolverSpec,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub experiment: Option<ExperimentSpec>,
+    pub experiment: Option<Experiment>,
 }
 
 /// The beam's section: `mass_per_length` and `bending_stiffness`, or `E`, `I`, `rho`, `A`.
@@ -93,22 +93,8 @@ pub struct SurfaceSpec {
     pub normal: [f64; 2],
     /// A point of the plane, m.
     pub point: [f64; 2],
-    pub law: SurfaceLaw,
-}
-
-/// The contact law, `{"type": "hertz", "K": .., "C": .., "damping": .., "e": ..}`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
-pub enum SurfaceLaw {
-    Hertz(Hertz),
-}
-
-impl SurfaceLaw {
-    pub fn hertz(&self) -> &Hertz {
-        match self {
-            SurfaceLaw::Hertz(h) => h,
-        }
-    }
+    /// Any compliant contact law (the scene's `law` object of a stop).
+    pub law: Law,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
@@ -181,16 +167,6 @@ fn default_max_events() -> u64 {
 
 fn default_max_steps() -> u64 {
     10_000
-}
-
-/// Suggested run (used by the report and examples, not by the engine).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ExperimentSpec {
-    #[serde(default)]
-    pub start: f64,
-    pub stop: f64,
-    pub step: f64,
 }
 
 /// Allowed ranges (the messages quote them).
@@ -282,6 +258,20 @@ impl RotatingSpec {
         Range::closed(0.0, GRAVITY_MAX)
     }
 
+    /// The suggested run (the scene's `experiment`, or 1 s in steps of 1 ms).
+    pub fn experiment(&self) -> Experiment {
+        self.experiment.clone().unwrap_or(Experiment { start: 0.0, stop: 1.0, step: 1e-3 })
+    }
+
+    /// The allowed range of a surface law's parameter of this kind.
+    pub fn law_range(&self, kind: RangeKind) -> Range {
+        match kind {
+            RangeKind::Unit => Range::UNIT,
+            RangeKind::Damping => self.damping_range(),
+            RangeKind::Stiffness | RangeKind::HertzStiffness | RangeKind::Duration => STIFFNESS_RANGE,
+        }
+    }
+
     /// Allowed initial hub speeds and spin-up rates.
     pub fn speed_range(&self) -> Range {
         let ratio = if self.surface.is_some() { IMPACT_SPEED_LIMIT_RATIO } else { SPEED_LIMIT_RATIO };
@@ -371,19 +361,14 @@ impl RotatingSpec {
             }
             check(ANY, "surface.point[0]", s.point[0])?;
             check(ANY, "surface.point[1]", s.point[1])?;
-            let h = s.law.hertz();
-            check(STIFFNESS_RANGE, "surface.law.K", h.stiffness)?;
-            match h.damping {
-                HertzDamping::Linear => check(self.damping_range(), "surface.law.C", h.damping_coefficient)?,
-                _ => {
-                    check(Range::UNIT, "surface.law.e", h.restitution)?;
-                    if h.damping_coefficient != 0.0 {
-                        return fail(format!(
-                            "surface.law.C = {:?}: only the linear damping takes C (the {:?} damping takes e); allowed value 0",
-                            h.damping_coefficient, h.damping
-                        ));
-                    }
-                }
+            if s.law.rigid() {
+                return fail("surface.law: a rigid law cannot be integrated; give a compliant one (hertz, spring_dashpot)".into());
+            }
+            s.law.validate("surface.law").map_err(|m| format!("rotating scene '{}': {m}", self.name))?;
+            let values = serde_json::to_value(&s.law).expect("a law always serialises");
+            for p in s.law.parameters() {
+                let v = crate::fields::get(&values, p.key).unwrap_or(f64::NAN);
+                check(self.law_range(p.range), &format!("surface.law.{}", p.key), v)?;
             }
         }
         check(self.angle_range(), "initial.theta", self.initial.theta)?;
@@ -430,7 +415,7 @@ mod tests {
         let s = RotatingSpec::from_json(SEED).unwrap();
         assert_eq!(s.hub, HubDrive::Torque);
         assert_eq!(s.order, OrderSpec::First);
-        assert_eq!(s.surface.as_ref().unwrap().law.hertz().damping, HertzDamping::LankaraniNikravesh);
+        assert!(matches!(&s.surface.as_ref().unwrap().law, Law::Hertz(h) if h.damping == crate::contact::HertzDamping::LankaraniNikravesh));
         let e = RotatingSpec::from_json(&SEED.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0.0")).unwrap_err();
         assert!(e.contains("hub_inertia = 0.0") && e.contains("(0, 289613333333.3333]") && e.contains("near-singular"), "{e}");
         let e = RotatingSpec::from_json(&SEED.replace("\"K\": 7.6e9", "\"K\": -1")).unwrap_err();

@@ -3,7 +3,7 @@
 //!
 //! State `y`: torque-driven hub `[theta, B, theta', B', P, E, H]`, prescribed
 //! hub `[B, B', P, E, H]` (theta from the profile), with the running totals
-//! `P = int F dt` (impulse), `E = int (F - K gamma^1.5) gamma' dt` (energy
+//! `P = int F dt` (impulse), `E = int (F - F_spring) gamma' dt` (energy
 //! the contact damping dissipated) and `H = int Q_c,theta dt` (angular
 //! impulse about the axis, the moment of the contact force). They come out
 //! of the integration to its accuracy; their Jacobian rows are left zero
@@ -19,32 +19,8 @@ use std::sync::Arc;
 use nalgebra::{Cholesky, DMatrix, DVector};
 
 use super::model::RotatingModel;
+use crate::contact::Contact;
 use crate::solve::radau::ImplicitSystem;
-
-/// The contact state of the tip.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ContactState {
-    /// No force (apart, or on the surface and leaving it).
-    Open,
-    /// Inside the surface and pushed out of it.
-    Pressed,
-    /// Inside the surface without force (the damping would pull).
-    Penetrated,
-}
-
-impl ContactState {
-    pub fn code(self) -> u8 {
-        match self {
-            ContactState::Open => 0,
-            ContactState::Pressed => 1,
-            ContactState::Penetrated => 2,
-        }
-    }
-
-    pub fn from_code(c: u8) -> Option<Self> {
-        [ContactState::Open, ContactState::Pressed, ContactState::Penetrated].get(c as usize).copied()
-    }
-}
 
 /// The contact quantities at one state.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -65,7 +41,7 @@ pub struct ContactPoint {
 #[derive(Clone, Debug)]
 pub struct Phase {
     pub model: Arc<RotatingModel>,
-    pub contact: ContactState,
+    pub contact: Contact,
     pub onset_speed: f64,
     pub torque: f64,
 }
@@ -134,19 +110,19 @@ impl Phase {
         if gamma > 0.0 {
             let (f, dp, dpd) = s.law.raw_force(gamma, rate, self.onset_speed);
             c.raw = f;
-            if self.contact == ContactState::Pressed && f > 0.0 {
+            if self.contact == Contact::Pressed && f > 0.0 {
                 (c.force, c.df_dp, c.df_dpd) = (f, dp, dpd);
             }
         }
         c
     }
 
-    /// Elastic energy `2/5 K gamma^2.5` stored while pressed (0 otherwise:
-    /// what is left at the end of a push counts as dissipated).
+    /// Elastic energy stored while pressed (0 otherwise: what is left at
+    /// the end of a push counts as dissipated).
     pub fn stored_energy(&self, c: &ContactPoint) -> f64 {
-        match (&self.model.surface, self.contact) {
-            (Some(s), ContactState::Pressed) => s.law.stored_energy(c.penetration),
-            _ => 0.0,
+        match &self.model.surface {
+            Some(s) => s.law.stored_energy(self.contact, c.penetration),
+            None => 0.0,
         }
     }
 
@@ -202,7 +178,7 @@ impl Phase {
         }
         dy[e] = c.force;
         dy[e + 1] = match &self.model.surface {
-            Some(s) if c.force > 0.0 => (c.force - s.law.stiffness * c.penetration * c.penetration.sqrt()) * c.rate,
+            Some(s) if c.force > 0.0 => (c.force - s.law.spring_force(c.penetration).0) * c.rate,
             _ => 0.0,
         };
         dy[e + 2] = qc[0];
@@ -321,7 +297,7 @@ mod tests {
         ];
         for (hub, damping) in cases {
             let m = model(hub, damping);
-            let mut phase = Phase { model: m.clone(), contact: ContactState::Pressed, onset_speed: 0.8, torque: 0.3 };
+            let mut phase = Phase { model: m.clone(), contact: Contact::Pressed, onset_speed: 0.8, torque: 0.3 };
             let dim = phase.dim();
             let n = phase.n();
             // A state 1e-4 m inside the plane, moving in.

@@ -1,36 +1,32 @@
-//! Integrated phases: while a nonlinear (Hertz) stop is pressed or
-//! penetrated, the modal equations are integrated by Radau IIA
-//! ([`crate::solve::radau`]) instead of propagated in closed form.
+//! Integrated phases: while a stop whose law's phase is nonlinear (Hertz)
+//! is pressed or penetrated, the modal equations are integrated by Radau
+//! IIA ([`crate::solve::radau`]) instead of propagated in closed form,
+//! every engaged stop acting as a force of its law.
 //!
 //! The integrator starts at the phase's anchor with a step size that
 //! depends only on the anchor, and steps on its own grid: communication
 //! times never shorten a step, so the trajectory does not depend on them,
 //! and a restored state rebuilds the same steps from its anchor (the
-//! state needs no integrator history). Inside each accepted step the
-//! watched functions are sampled on the collocation polynomial at
-//! `SAMPLES` points; the first sample where one is negative brackets the
-//! switch, which bisection then locates to a few ulps, and the state
-//! there is recomputed by one Radau step from the step's start (order 5,
-//! not the polynomial's 3). A switch and a return within one sample
-//! interval (an eighth of a step the error control keeps short against the
-//! contact's own time scale) is the one pattern this cannot see; the
-//! step is also capped at a quarter of the linearised contact period.
+//! state needs no integrator history). Each accepted step's collocation
+//! polynomial goes to the switch locator ([`crate::solve::switch`]:
+//! samples, interior minima of the gaps and penetrations, bisection), and
+//! the state at a switch is recomputed by one Radau step from the step's
+//! start (order 5, not the polynomial's 3). The step is also capped at a
+//! quarter of the linearised contact period.
 
 use nalgebra::{DMatrix, DVector};
 
-use super::nonlinear::{HertzContact, NonlinearPhase};
+use super::nonlinear::{NonlinearContact, NonlinearPhase};
 use super::{Channel, SimError, Simulation};
-use crate::contact::{Contact, Law, Watch};
+use crate::contact::{Contact, Watch};
 use crate::solve::radau::{ImplicitSystem, Radau, RadauOptions, Tol};
+use crate::solve::switch::{first_switch, DenseWatch};
 use crate::solve::{Functional, Jet, ModalState};
-
-/// Samples of the watched functions per accepted step.
-const SAMPLES: usize = 8;
 
 /// How one channel is evaluated in an integrated phase.
 #[derive(Clone, Debug)]
 pub(super) enum Evaluator {
-    /// A nonlinear stop's watch, on contact `i` of the phase.
+    /// An engaged stop's watch, on contact `i` of the phase.
     Nonlinear { contact: usize, watch: Watch },
     /// A function affine in the modal state (an open stop's gap).
     Affine(Functional),
@@ -107,16 +103,59 @@ impl IntegratedSegment {
         (y[2 * n + i], y[2 * n + nc + i])
     }
 
-    fn value(&self, e: &Evaluator, y: &DVector<f64>) -> f64 {
+    fn evaluate(&self, e: &Evaluator, y: &DVector<f64>) -> f64 {
         match e {
             Evaluator::Nonlinear { contact, watch } => {
                 let (p, pd) = self.phase.penetration(*contact, y.as_slice());
                 let c = &self.phase.contacts[*contact];
-                c.law.watched_value(*watch, p, pd, c.onset_speed)
+                c.law.watched(*watch, p, pd, c.onset_speed).0
             }
             Evaluator::Affine(h) => {
                 let n = self.phase.n;
                 h.offset + h.q.iter().zip(y.rows(0, n).iter()).map(|(a, b)| a * b).sum::<f64>()
+            }
+        }
+    }
+}
+
+/// The watched functions along the last accepted step, for the switch
+/// locator: gaps and penetrations give their rate (`w . q'` from the
+/// dense output's derivative).
+impl DenseWatch for IntegratedSegment {
+    fn count(&self) -> usize {
+        self.evaluators.len()
+    }
+
+    fn values(&self, t: f64, out: &mut [f64]) {
+        let mut y = DVector::zeros(self.phase.dim());
+        self.y_at(t, &mut y);
+        for (o, e) in out.iter_mut().zip(&self.evaluators) {
+            *o = self.evaluate(e, &y);
+        }
+    }
+
+    fn value(&self, i: usize, t: f64) -> f64 {
+        let mut y = DVector::zeros(self.phase.dim());
+        self.y_at(t, &mut y);
+        self.evaluate(&self.evaluators[i], &y)
+    }
+
+    fn rate(&self, i: usize, t: f64) -> Option<f64> {
+        let n = self.phase.n;
+        let q_rate = |a: &[f64], sign: f64| {
+            let mut dy = DVector::zeros(self.phase.dim());
+            self.solver.dense_derivative(t, &mut dy).ok()?;
+            Some(sign * a.iter().zip(dy.rows(0, n).iter()).map(|(x, d)| x * d).sum::<f64>())
+        };
+        match &self.evaluators[i] {
+            Evaluator::Affine(h) => q_rate(h.q.as_slice(), 1.0),
+            Evaluator::Nonlinear { contact, watch } => {
+                let g = &self.phase.contacts[*contact].geometry;
+                match watch {
+                    Watch::Penetration => q_rate(g.w.as_slice(), g.side),
+                    Watch::Gap => q_rate(g.w.as_slice(), -g.side),
+                    _ => None,
+                }
             }
         }
     }
@@ -138,7 +177,8 @@ impl IntegratedSegment {
 }
 
 impl Simulation {
-    /// The integrated segment of a phase with a nonlinear stop engaged.
+    /// The integrated segment of a phase with a nonlinear stop engaged:
+    /// every engaged stop of a law with a force is one of its contacts.
     pub(super) fn integrated_segment(&self) -> Result<IntegratedSegment, SimError> {
         let n = self.model.n_modes();
         let omega2 = DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega));
@@ -146,11 +186,9 @@ impl Simulation {
         let mut contacts = Vec::new();
         let mut index = vec![usize::MAX; self.model.stops.len()];
         for (i, (m, s)) in self.model.stops.iter().zip(&self.state.stops).enumerate() {
-            if let Law::Hertz(law) = &m.law {
-                if s.contact != Contact::Open {
-                    index[i] = contacts.len();
-                    contacts.push(HertzContact { stop: i, law: law.clone(), geometry: self.geometries[i].clone(), contact: s.contact, onset_speed: s.onset_speed });
-                }
+            if s.contact != Contact::Open && !m.law.rigid() {
+                index[i] = contacts.len();
+                contacts.push(NonlinearContact { stop: i, law: m.law.clone(), geometry: self.geometries[i].clone(), contact: s.contact, onset_speed: s.onset_speed });
             }
         }
         let evaluators = self
@@ -172,15 +210,16 @@ impl Simulation {
             let w2 = g.w.dot(&g.w);
             let w_max = g.w.amax().max(f64::MIN_POSITIVE);
             // Effective mass of the point, 1 / |w|^2; the deepest
-            // penetration of a mass that size arriving at the onset speed,
-            // (5 m v0^2 / 4 K)^(2/5), sets the scale of the contact.
+            // penetration of a mass that size arriving at the onset speed
+            // (the law's depth storing its kinetic energy) sets the scale
+            // of the contact.
             let v0 = c.onset_speed.max(g.penetration_rate(&self.state.anchor.qd).abs());
-            // No deeper than the motion reaches (a vanishing K would give
-            // an infinite depth).
+            // No deeper than the motion reaches (a vanishing stiffness
+            // would give an infinite depth).
             let reach = g.gap.abs() + g.w.dot(&self.state.anchor.q).abs() + v0 / slowest;
-            let depth = (1.25 * v0 * v0 / (c.law.stiffness * w2)).powf(0.4).min(reach);
+            let depth = c.law.depth(v0, w2).min(reach);
             let p = g.penetration(&self.state.anchor.q).max(depth).max(1e-6 * g.gap.abs());
-            let k_lin = 1.5 * c.law.stiffness * p.sqrt();
+            let k_lin = c.law.raw_force(p, 0.0, c.onset_speed).1;
             let omega_c = (k_lin * w2).sqrt();
             if omega_c > 0.0 {
                 max_step = max_step.min(0.25 * std::f64::consts::TAU / omega_c);
@@ -204,7 +243,7 @@ impl Simulation {
         atol.rows_mut(2 * n, dim - 2 * n).fill(1e100);
         let options = RadauOptions { rtol: Tol::Scalar(tol), atol: Tol::Vector(atol), h_max: max_step, max_steps: u64::MAX, ..RadauOptions::default() };
         let solver = Radau::new(&mut phase, self.state.anchor_time, &anchor, options)
-            .map_err(|e| SimError::Integration { time: self.state.anchor_time, message: e.to_string() })?;
+            .map_err(|e| integration(self.state.anchor_time, e.to_string()))?;
         Ok(IntegratedSegment { phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor })
     }
 
@@ -219,10 +258,11 @@ impl Simulation {
     }
 
     /// The event search of an integrated phase from `scan` up to `t_end`:
-    /// the first switch with the state there and the channels at zero, or
-    /// `None` when `[scan, t_end]` is clear (then `scan` stays at or before
-    /// `t_end`, inside the last step).
-    pub(super) fn integrated_search(&mut self, t_end: f64, probes: &mut u64) -> Result<Option<(f64, ModalState, Vec<(usize, Jet)>)>, SimError> {
+    /// the first switch with the state there, the channels at zero and the
+    /// sample its bracket started at (a search resumed there finds it
+    /// again), or `None` when `[scan, t_end]` is clear (then `scan` stays
+    /// at or before `t_end`, inside the last step).
+    pub(super) fn integrated_search(&mut self, t_end: f64, probes: &mut u64) -> Result<Option<IntegratedSwitch>, SimError> {
         let max_probes = self.model.max_probes_per_step;
         loop {
             let scan = self.state.scan;
@@ -239,94 +279,62 @@ impl Simulation {
                 *probes += weight;
                 self.stats.probes += 1;
                 if *probes > max_probes {
-                    return Err(SimError::TooMuchWork { time: scan, probes: *probes - weight });
+                    return Err(SimError::TooMuchWork { time: scan, work: *probes - weight, cap: "solver.max_probes_per_step" });
                 }
                 take_step(seg)?;
             }
             let (t0, t1, _) = seg.step.clone().expect("a step");
-            let dim = seg.phase.dim();
-            let mut y = DVector::zeros(dim);
-            let h = t1 - t0;
-            let mut previous = t0;
-            for k in 1..=SAMPLES {
-                let s = if k == SAMPLES { t1 } else { t0 + h * k as f64 / SAMPLES as f64 };
-                if s <= scan {
-                    previous = s;
-                    continue;
-                }
-                seg.y_at(s, &mut y);
-                let negative: Vec<usize> = (0..seg.evaluators.len()).filter(|&c| seg.value(&seg.evaluators[c], &y) < 0.0).collect();
-                if negative.is_empty() {
-                    if s > t_end {
-                        // Clear to beyond t_end; the sample grid is the
-                        // step's, so the next search sees the same samples.
-                        self.state.scan = self.state.scan.max(t_end);
-                        return Ok(None);
-                    }
-                    self.state.scan = s;
-                    previous = s;
-                    continue;
-                }
-                // Locate each negative channel's first zero in (lo, s].
-                // The bracket starts at the previous sample of the step's
-                // grid (not at `scan`), so a search resumed inside a step
-                // finds bit for bit the zero an uninterrupted one finds.
-                let lo = previous;
-                let mut roots: Vec<(usize, f64, f64)> = Vec::new();
-                for &c in &negative {
-                    let (mut a, mut b) = (lo, s);
-                    let vb = seg.value(&seg.evaluators[c], &y);
-                    let mut ya = DVector::zeros(dim);
-                    seg.y_at(a, &mut ya);
-                    let va = seg.value(&seg.evaluators[c], &ya);
-                    let slope = if b > a { (vb - va.max(0.0)) / (b - a) } else { -1.0 };
-                    if va >= 0.0 {
-                        let mut ym = DVector::zeros(dim);
-                        loop {
-                            let m = 0.5 * (a + b);
-                            if !(m > a && m < b) {
-                                break;
-                            }
-                            seg.y_at(m, &mut ym);
-                            if seg.value(&seg.evaluators[c], &ym) < 0.0 {
-                                b = m;
-                            } else {
-                                a = m;
-                            }
-                        }
-                    }
-                    roots.push((c, b, slope.min(-f64::MIN_POSITIVE)));
-                }
-                let te = roots.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
-                if te > t_end {
+            let Some(located) = first_switch(&**seg, t0, t1, scan) else {
+                if t1 > t_end {
+                    // Clear to beyond t_end; the sample grid is the
+                    // step's, so the next search sees the same samples.
                     self.state.scan = self.state.scan.max(t_end);
                     return Ok(None);
                 }
-                // The state at the switch: one Radau step from the step's start.
-                let y0 = seg.step.as_ref().expect("a step").2.clone();
-                let mut at = DVector::zeros(dim);
-                if te == t1 || te <= t0 || one_step(&mut seg.phase, t0, &y0, te, &mut at).is_err() {
-                    seg.y_at(te, &mut at);
-                }
-                let n = seg.phase.n;
-                let mut st = ModalState::zeros(n);
-                st.q.copy_from(&at.rows(0, n));
-                st.qd.copy_from(&at.rows(n, n));
-                // Channels whose zero lies within a few ulps of the first.
-                let close = 4.0 * f64::EPSILON * te.abs().max(f64::MIN_POSITIVE);
-                let at_zero = roots
-                    .iter()
-                    .filter(|r| r.1 - te <= close)
-                    .map(|&(c, _, slope)| {
-                        let value = seg.value(&seg.evaluators[c], &at);
-                        (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
-                    })
-                    .collect();
-                return Ok(Some((te, st, at_zero)));
+                self.state.scan = t1;
+                continue;
+            };
+            let te = located.time;
+            if te > t_end {
+                self.state.scan = self.state.scan.max(t_end);
+                return Ok(None);
             }
-            self.state.scan = t1;
+            // The state at the switch: one Radau step from the step's start.
+            let dim = seg.phase.dim();
+            let y0 = seg.step.as_ref().expect("a step").2.clone();
+            let mut at = DVector::zeros(dim);
+            if te == t1 || te <= t0 || one_step(&mut seg.phase, t0, &y0, te, &mut at).is_err() {
+                seg.y_at(te, &mut at);
+            } else {
+                // The totals the switch closes the phase with come from this
+                // state too, as they do when the run stopped here first.
+                seg.exact = Some((te, at.clone()));
+            }
+            let n = seg.phase.n;
+            let mut st = ModalState::zeros(n);
+            st.q.copy_from(&at.rows(0, n));
+            st.qd.copy_from(&at.rows(n, n));
+            let at_zero = located
+                .at_zero
+                .iter()
+                .map(|&(c, slope)| {
+                    let value = seg.evaluate(&seg.evaluators[c], &at);
+                    (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
+                })
+                .collect();
+            return Ok(Some(IntegratedSwitch { time: te, state: st, at_zero, from: located.from }));
         }
     }
+}
+
+/// A switch an integrated phase's search located.
+pub(super) struct IntegratedSwitch {
+    pub time: f64,
+    /// The state there (to the method's full order).
+    pub state: ModalState,
+    pub at_zero: Vec<(usize, Jet)>,
+    /// The sample the switch's bracket started at.
+    pub from: f64,
 }
 
 /// One Radau step from `(t0, y0)` to `t1` without error control: the state
@@ -341,8 +349,13 @@ fn one_step(phase: &mut NonlinearPhase, t0: f64, y0: &DVector<f64>, t1: f64, out
 
 fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
     let (t0, y0) = (seg.solver.t(), seg.solver.y().clone_owned());
-    let (a, b) = seg.solver.step(&mut seg.phase, f64::MAX).map_err(|e| SimError::Integration { time: t0, message: e.to_string() })?;
+    let (a, b) = seg.solver.step(&mut seg.phase, f64::MAX).map_err(|e| integration(t0, e.to_string()))?;
     debug_assert_eq!(a, t0);
     seg.step = Some((a, b, y0));
     Ok(())
+}
+
+/// An integration failure, with what to change.
+fn integration(time: f64, message: String) -> SimError {
+    SimError::Integration { time, message: format!("{message}; loosen solver.integration_tolerance or check the contact parameters") }
 }

@@ -1,30 +1,31 @@
-//! The equations of a phase with a nonlinear contact (a Hertz stop pressed
-//! or penetrated), integrated instead of solved in closed form.
+//! The equations of a phase with a nonlinear contact (a stop whose law's
+//! phase term is nonlinear, pressed or penetrated), integrated instead of
+//! solved in closed form.
 //!
 //! The structure stays linear: `q'' + 2 a q' + omega^2 q = f(t) - sum_i
-//! side_i w_i F_i` with each Hertz stop's force `F_i(p_i, p_i')` (seed 004
-//! eqs. 2-4). The integrated state is `[q; q'; J; E]`:
-//! besides the modal state it carries, per Hertz stop, the impulse `J_i =
-//! int F_i dt` and the energy its damping dissipates `E_i = int F_d,i p_i'
-//! dt`, so both come out of the integration to its accuracy.
+//! side_i w_i F_i` with each engaged stop's force `F_i(p_i, p_i')` from its
+//! law (Hertz: seed 004 eqs. 2-4). The integrated state is `[q; q'; J; E]`:
+//! besides the modal state it carries, per engaged stop, the impulse `J_i =
+//! int F_i dt` and the energy its damping dissipates `E_i = int (F_i -
+//! F_spring,i) p_i' dt`, so both come out of the integration to its accuracy.
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::contact::{Contact, Geometry, Hertz};
+use crate::contact::{Contact, Geometry, Law};
 use crate::solve::ModalForcing;
 
-/// A Hertz stop in a nonlinear phase.
+/// An engaged stop in a nonlinear phase: a force of the state.
 #[derive(Clone, Debug)]
-pub struct HertzContact {
+pub struct NonlinearContact {
     /// The stop's index in the model.
     pub stop: usize,
-    pub law: Hertz,
+    pub law: Law,
     pub geometry: Geometry,
     pub contact: Contact,
     pub onset_speed: f64,
 }
 
-impl HertzContact {
+impl NonlinearContact {
     /// The force and its partial derivatives `(F, dF/dp, dF/dp')`, zero
     /// where the law does not push.
     pub fn force(&self, p: f64, pd: f64) -> (f64, f64, f64) {
@@ -39,10 +40,9 @@ impl HertzContact {
         }
     }
 
-    /// The spring's share of the force, `K p^1.5` (the rest dissipates).
-    pub fn spring_force(&self, p: f64) -> f64 {
-        let pp = p.max(0.0);
-        self.law.stiffness * pp * pp.sqrt()
+    /// The spring's share of the force and its derivative (the rest dissipates).
+    pub fn spring_force(&self, p: f64) -> (f64, f64) {
+        self.law.spring_force(p)
     }
 }
 
@@ -53,12 +53,12 @@ pub struct NonlinearPhase {
     pub omega2: DVector<f64>,
     pub two_a: DVector<f64>,
     pub forcing: ModalForcing,
-    pub contacts: Vec<HertzContact>,
+    pub contacts: Vec<NonlinearContact>,
     f: DVector<f64>,
 }
 
 impl NonlinearPhase {
-    pub fn new(omega2: DVector<f64>, two_a: DVector<f64>, forcing: ModalForcing, contacts: Vec<HertzContact>) -> Self {
+    pub fn new(omega2: DVector<f64>, two_a: DVector<f64>, forcing: ModalForcing, contacts: Vec<NonlinearContact>) -> Self {
         let n = omega2.len();
         NonlinearPhase { n, omega2, two_a, forcing, contacts, f: DVector::zeros(n) }
     }
@@ -91,7 +91,7 @@ impl NonlinearPhase {
                 dy[n + j] -= g.side * g.w[j] * force;
             }
             dy[2 * n + i] = force;
-            dy[2 * n + nc + i] = if force > 0.0 { (force - c.spring_force(p)) * pd } else { 0.0 };
+            dy[2 * n + nc + i] = if force > 0.0 { (force - c.spring_force(p).0) * pd } else { 0.0 };
         }
     }
 
@@ -125,9 +125,8 @@ impl NonlinearPhase {
                 jac[(2 * n + i, n + j)] = dpd * g.side * g.w[j];
             }
             if force > 0.0 {
-                // E' = (F - K p^1.5) p'.
-                let spring = c.spring_force(p);
-                let dspring = 1.5 * c.law.stiffness * p.max(0.0).sqrt();
+                // E' = (F - F_spring) p'.
+                let (spring, dspring) = c.spring_force(p);
                 for j in 0..n {
                     jac[(2 * n + nc + i, j)] = (dp - dspring) * pd * g.side * g.w[j];
                     jac[(2 * n + nc + i, n + j)] = (dpd * pd + (force - spring)) * g.side * g.w[j];
@@ -151,15 +150,15 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::HertzDamping;
+    use crate::contact::{Hertz, HertzDamping};
 
     #[test]
     fn jacobian_matches_finite_differences() {
         let n = 3;
         let w = DVector::from_vec(vec![1.0, -0.7, 0.4]);
-        let contact = HertzContact {
+        let contact = NonlinearContact {
             stop: 0,
-            law: Hertz { stiffness: 2e6, damping_coefficient: 0.0, damping: HertzDamping::LankaraniNikravesh, restitution: 0.5 },
+            law: Law::Hertz(Hertz { stiffness: 2e6, damping_coefficient: 0.0, damping: HertzDamping::LankaraniNikravesh, restitution: 0.5 }),
             geometry: Geometry { w, gap: 1e-3, side: 1.0 },
             contact: Contact::Pressed,
             onset_speed: 0.3,

@@ -16,7 +16,7 @@
 //!   levels deep instead of Horner's ten), and the C library's `expm1`
 //!   beyond.
 
-use super::oscillator::C64;
+use super::complex::C64;
 
 /// `(sin x, cos x)`, within 1 ulp.
 #[inline]

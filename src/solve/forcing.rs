@@ -3,7 +3,7 @@
 use nalgebra::DVector;
 
 use super::elementary::unit;
-use super::oscillator::C64;
+use super::complex::C64;
 
 /// One harmonic component: `Re(amplitude_j e^{i omega t})` on mode j.
 #[derive(Clone, Debug, PartialEq)]

@@ -7,17 +7,22 @@
 //! Nonlinear phases (Hertz contact, rotating beams) are integrated by
 //! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks.
 
+pub mod complex;
 pub mod elementary;
 pub mod events;
 pub mod forcing;
 pub mod free;
 pub mod functional;
 pub mod lti;
+pub mod modal_state;
 pub mod oscillator;
 pub mod quadrature;
 pub mod radau;
+pub mod switch;
 
+pub use complex::C64;
 pub use forcing::{Harmonic, ModalForcing};
-pub use free::{FreeDynamics, FreeSegment, ModalState};
+pub use free::{FreeDynamics, FreeSegment};
 pub use functional::{DerivativeBounds, Functional, Jet};
-pub use oscillator::{Oscillator, C64};
+pub use modal_state::ModalState;
+pub use oscillator::Oscillator;

@@ -6,11 +6,8 @@
 //! forcing is to resonance (the classical closed forms, rewritten with
 //! `expm1` and `phi1(z) = (e^z - 1) / z`).
 
-use nalgebra::Complex;
-
 use super::elementary::{exp_m1, sin_cos};
-
-pub type C64 = Complex<f64>;
+pub use super::complex::C64;
 
 /// `expm1` of a complex argument, accurate for small `|z|`.
 pub fn expm1_c(z: C64) -> C64 {

@@ -7,12 +7,8 @@ it, libcosim the FMU, and their agreement checks both.
 """
 from __future__ import annotations
 
-import os
-import platform
 import shutil
 import subprocess
-import sys
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,7 +29,9 @@ class Sample:
 
 class Controller:
     """A sampled PD/PID law: `step(t, h, theta, theta_dot)` samples the inputs
-    at t, returns the torque to hold, and integrates the error over h.
+    at the controller's own time (where its last step ended, as the FMU
+    keeps it), returns the torque to hold, and integrates the error up to
+    the step's end t + h.
 
     torque = clamp(Kp e + Kd (r'(t) - theta_dot) + Ki I, -torque_max, torque_max),
     e = r(t) - theta; I += e h unless the output saturates with e pushing it
@@ -46,6 +44,7 @@ class Controller:
         self.theta_ref, self.theta_start = float(theta_ref), float(theta_start)
         self.T_slew, self.torque_max = float(T_slew), float(torque_max)
         self.t_start = float(t_start)
+        self.time = float(t_start)
         self.integral = 0.0
 
     @classmethod
@@ -71,51 +70,30 @@ class Controller:
         return Sample(torque, r, e, torque != v and e * v > 0.0)
 
     def step(self, t: float, h: float, theta: float, theta_dot: float) -> Sample:
-        s = self.law(t, theta, theta_dot)
+        end = max(t + h, self.time)
+        s = self.law(self.time, theta, theta_dot)
         if not s.frozen:
-            self.integral += s.error * h
+            self.integral += s.error * (end - self.time)
+        self.time = end
         return s
 
 
-def _library_name() -> tuple[str, str]:
-    """(cargo's output file, the FMU's binaries/<platform>/ file)."""
-    machine = platform.machine().lower()
-    bits = "64" if machine in ("x86_64", "amd64", "aarch64", "arm64") or sys.maxsize > 2**32 else "32"
-    if sys.platform.startswith("linux"):
-        return "libpd_controller_fmu.so", f"linux{bits}/PDController.so"
-    if sys.platform == "darwin":
-        return "libpd_controller_fmu.dylib", f"darwin{bits}/PDController.dylib"
-    if sys.platform == "win32":
-        return "pd_controller_fmu.dll", f"win{bits}/PDController.dll"
-    raise RuntimeError(f"no FMI 2.0 platform name for {sys.platform}")
-
-
 def build_fmu(out: Path = FMU_PATH, quiet: bool = True) -> Path:
-    """`cargo build --release` of examples/coupling/pd_controller (its own
-    workspace) and the FMU archive: the crate's
-    modelDescription.xml and binaries/<platform>/PDController.<ext>."""
+    """PDController.fmu at `out` (its folder; the name is the scene's): the
+    controller's crate, a kind of simulation of its own, built by cargo in
+    beamstop's workspace and packed by its command, which uses beamstop's
+    FMI layer and packager."""
     cargo = shutil.which("cargo")
     if cargo is None:
         raise RuntimeError("cargo not found: PDController.fmu is built from examples/coupling/pd_controller")
-    # CARGO_TARGET_DIR if set (relative to the crate: cargo runs there),
-    # else target/pd_controller under the repository.
-    target = Path(os.environ.get("CARGO_TARGET_DIR") or ROOT / "target" / "pd_controller")
-    if not target.is_absolute():
-        target = CRATE / target
-    cmd = [cargo, "build", "--release", "--target-dir", str(target)]
+    cmd = [cargo, "run", "--release", "-p", "pd_controller_fmu", "--bin", "package-pd-controller"]
     if quiet:
         cmd.append("--quiet")
-    subprocess.run(cmd, check=True, cwd=CRATE)
-    built, inside = _library_name()
-    library = target / "release" / built
-    if not library.is_file():
-        raise RuntimeError(f"cargo built no {library}")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_suffix(".fmu.tmp")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-        z.write(CRATE / "modelDescription.xml", "modelDescription.xml")
-        z.write(library, f"binaries/{inside}")
-    tmp.replace(out)
+    cmd += ["--", str(out.parent)]
+    subprocess.run(cmd, check=True, cwd=ROOT, stdout=subprocess.DEVNULL if quiet else None)
+    built = out.parent / "PDController.fmu"
+    if built != out:
+        built.replace(out)
     return out
 
 

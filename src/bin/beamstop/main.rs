@@ -13,10 +13,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use beamstop::fmi2::description::model_description;
-use beamstop::package::write_fmu;
-use beamstop::readout::Value;
-use beamstop::rotating::RotatingEventKind;
-use beamstop::{Component, EventKind, Run};
+use beamstop::package::{library_beside_executable, write_fmu};
+use beamstop::kind::Run;
+use beamstop::variables::Value;
+use beamstop::Component;
 
 const USAGE: &str = "usage:
   beamstop package [scene.json ...]      build FMUs into target/fmu (default: every scene in scenes/)
@@ -51,24 +51,11 @@ fn builtin_scenes() -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
-/// The cdylib built alongside this executable.
-fn fmu_binary() -> Result<PathBuf, String> {
-    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
-    let dir = exe.parent().ok_or("no executable directory")?;
-    let name = format!("{}beamstop{}", std::env::consts::DLL_PREFIX, std::env::consts::DLL_SUFFIX);
-    let path = dir.join(&name);
-    if path.exists() {
-        Ok(path)
-    } else {
-        Err(format!("{} not found next to {}: build with `cargo build --release` first", name, exe.display()))
-    }
-}
-
 fn package(args: &[String]) -> Result<(), String> {
     let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
     // Validate everything first: no FMU is written from an invalid scene.
     let scenes: Vec<Component> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
-    let binary = fmu_binary()?;
+    let binary = library_beside_executable("beamstop")?;
     let out = root().join("target").join("fmu");
     for scene in &scenes {
         let path = write_fmu(scene, &binary, &out)?;
@@ -118,7 +105,7 @@ fn run(args: &[String]) -> Result<(), String> {
     sim.set_event_recording(true);
     let outputs = scene.outputs();
     let mut csv = String::from("time");
-    for o in &outputs {
+    for o in outputs {
         csv.push(',');
         csv.push_str(&o.name);
     }
@@ -128,10 +115,10 @@ fn run(args: &[String]) -> Result<(), String> {
     let n = ((stop - start) / step).round() as u64;
     for k in 0..=n {
         let t = if k == n { stop } else { start + k as f64 * step };
-        sim.advance_to(t).map_err(|e| e.message)?;
+        sim.advance_to(t).map_err(|e| e.to_string())?;
         csv.push_str(&format!("{t}"));
-        for o in &outputs {
-            let v = match sim.evaluate(o.key) {
+        for (i, _) in outputs.iter().enumerate() {
+            let v = match sim.evaluate(i) {
                 Value::Real(x) => format!("{x}"),
                 Value::Integer(i) => format!("{i}"),
                 Value::Boolean(b) => format!("{}", b as u8),
@@ -140,23 +127,15 @@ fn run(args: &[String]) -> Result<(), String> {
             csv.push_str(&v);
         }
         csv.push('\n');
-        event_rows(&mut sim, &mut events);
+        event_rows(sim.as_mut(), &mut events);
     }
     let elapsed = clock.elapsed();
     let results = out_dir.join(format!("{}.csv", scene.name()));
     let event_file = out_dir.join(format!("{}_events.csv", scene.name()));
     std::fs::write(&results, csv).map_err(|e| format!("{}: {e}", results.display()))?;
     std::fs::write(&event_file, events).map_err(|e| format!("{}: {e}", event_file.display()))?;
-    let work = match &sim {
-        Run::Modal(s) => {
-            let stats = s.stats();
-            format!("{} events, {} event-function evaluations", stats.events, stats.probes)
-        }
-        Run::Rotating(s) => {
-            let stats = s.stats();
-            format!("{} events, {} Radau steps ({} rejected)", stats.events, stats.accepted, stats.rejected)
-        }
-    };
+    let w = sim.work();
+    let work = format!("{} events, {} {}", w.events, w.units, w.unit);
     println!("{}: t = {start}..{stop}, step {step}: {work}, {:.3} ms", scene.name(), elapsed.as_secs_f64() * 1e3);
     println!("results: {}", results.display());
     println!("events:  {}", event_file.display());
@@ -164,36 +143,9 @@ fn run(args: &[String]) -> Result<(), String> {
 }
 
 /// Appends the events since the last call as CSV rows `time,event,stop,detail`.
-fn event_rows(sim: &mut Run, out: &mut String) {
-    match sim {
-        Run::Modal(s) => {
-            for e in s.drain_events() {
-                let (kind, stop, detail) = match e.kind {
-                    EventKind::Impact { stop, speed, restitution, chatter, .. } => {
-                        ("impact", stop, format!("speed={speed:e} R={restitution}{}", if chatter { " chatter-end" } else { "" }))
-                    }
-                    EventKind::Stick { stop, reaction } => ("stick", stop, format!("reaction={reaction:e}")),
-                    EventKind::Release { stop } => ("release", stop, String::new()),
-                    EventKind::Graze { stop } => ("graze", stop, String::new()),
-                    EventKind::Contact { stop, speed } => ("contact", stop, format!("speed={speed:e}")),
-                    EventKind::Separation { stop, penetration } => ("separation", stop, format!("penetration={penetration:e}")),
-                };
-                out.push_str(&format!("{:.17},{kind},{},{detail}\n", e.time, s.model().stops[stop].name));
-            }
-        }
-        Run::Rotating(s) => {
-            for e in s.drain_events() {
-                let (kind, detail) = match e.kind {
-                    RotatingEventKind::Onset { speed } => ("contact", format!("speed={speed:e}")),
-                    RotatingEventKind::PushEnd { penetration } => ("push-end", format!("penetration={penetration:e}")),
-                    RotatingEventKind::PushResumed => ("push-resumed", String::new()),
-                    RotatingEventKind::Separation { peak_force, duration, impulse } => {
-                        ("separation", format!("peak_force={peak_force:e} duration={duration:e} impulse={impulse:e}"))
-                    }
-                };
-                out.push_str(&format!("{:.17},{kind},surface,{detail}\n", e.time));
-            }
-        }
+fn event_rows(sim: &mut dyn Run, out: &mut String) {
+    for e in sim.drain_events() {
+        out.push_str(&format!("{:.17},{},{},{}\n", e.time, e.class.word(), e.at, e.detail));
     }
 }
 

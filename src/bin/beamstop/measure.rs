@@ -83,7 +83,7 @@ pub fn measure(config: &Path) -> Result<(), String> {
     let params = interface::parameters(&scene);
     for (name, value) in &cfg.set {
         let p = params.iter().find(|p| &p.name == name).ok_or_else(|| format!("set: no parameter named {name:?}"))?;
-        p.key.set(&mut scene, *value);
+        scene.set_field(&p.scene_path, *value)?;
     }
     let model = Model::build(&scene).map_err(|e| e.0)?;
     let start = scene.experiment.start;

@@ -1,0 +1,222 @@
+//! The simulation contract: what a kind of simulation offers the layers
+//! above it (the FMI shell, the packager, the command line), in the spirit
+//! of the Reference FMUs' `model.h`. A kind reads its scene files
+//! ([`Kind`]), a scene declares its variables and starts runs ([`Scene`]),
+//! a run advances through its events and keeps a versioned state
+//! ([`Run`]). Nothing here knows about FMI.
+//!
+//! Kinds register themselves with `inventory::submit!` of a
+//! [`Registration`] (the beam kinds in [`crate::kinds`]; a crate that
+//! builds an FMU of its own kind submits it there), and a scene file goes
+//! to the first kind that recognizes it.
+
+use std::any::Any;
+use std::fmt;
+
+use nalgebra::{DMatrix, DVector};
+use serde_json::Value as Json;
+
+use crate::codec::{Reader, Writer};
+pub use crate::error::SimError;
+use crate::variables::{Experiment, Value, Variables};
+
+/// A kind of simulation: how its scene files are recognized and read.
+pub trait Kind: Sync {
+    /// A short name, for messages ("modal", "rotating", ...).
+    fn name(&self) -> &'static str;
+    /// Whether a scene file is of this kind.
+    fn recognizes(&self, scene: &Json) -> bool;
+    /// The scene, validated; the error names the field and what is allowed.
+    fn load(&self, scene: &Json) -> Result<Box<dyn Scene>, String>;
+}
+
+/// A kind's entry in the registry (see the module doc).
+pub struct Registration(pub &'static dyn Kind);
+
+inventory::collect!(Registration);
+
+/// Every registered kind.
+pub fn kinds() -> impl Iterator<Item = &'static dyn Kind> {
+    inventory::iter::<Registration>.into_iter().map(|r| r.0)
+}
+
+/// The kind of a scene file.
+pub fn kind_of(scene: &Json) -> Result<&'static dyn Kind, String> {
+    kinds().find(|k| k.recognizes(scene)).ok_or_else(|| {
+        let names: Vec<&str> = kinds().map(|k| k.name()).collect();
+        format!("scene: not a scene of any kind this build knows ({})", names.join(", "))
+    })
+}
+
+/// A validated scene of some kind: its variables, and runs of it.
+pub trait Scene: Send + Sync + fmt::Debug {
+    fn name(&self) -> &str;
+    fn description(&self) -> &str;
+    fn experiment(&self) -> Experiment;
+    /// The scene file in canonical form: what an FMU carries and its GUID hashes.
+    fn canonical(&self) -> String;
+    /// Parameters, inputs and outputs (fixed by the scene's structure,
+    /// never by a parameter's value).
+    fn variables(&self) -> Variables;
+    /// How runs of this kind compute, in a paragraph (for documentation).
+    fn method(&self) -> &'static str;
+    /// A run from the scene's initial state at `start_time`, with the
+    /// inputs (in [`Variables::inputs`] order) applied.
+    fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError>;
+    /// Carries a run of this kind over to this scene's (tunable) values.
+    fn retune(&self, run: &mut dyn Run) -> Result<(), SimError> {
+        let _ = run;
+        Err(SimError::NotAnInput("a parameter during a run: this scene has no tunable parameters".into()))
+    }
+    /// A run restored from [`Run::encode`]'s bytes and validated against
+    /// this scene; `inputs` are the inputs it was saved with. The error
+    /// names the field that is wrong.
+    fn decode(&self, inputs: &[f64], r: &mut Reader) -> Result<Box<dyn Run>, String>;
+}
+
+/// Where an advance stopped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reached {
+    /// The requested time, every event on the way handled.
+    Time,
+    /// Just before the discrete change of an event at this time (now the
+    /// run's time): [`Run::apply_events`] makes it.
+    Event(f64),
+}
+
+/// One simulation run.
+pub trait Run: Send + fmt::Debug + AnyRun {
+    fn time(&self) -> f64;
+    /// The shortest period the run must resolve (the time's resolution
+    /// must stay well below it).
+    fn shortest_period(&self) -> f64;
+    /// Advances to `t`, handling every event on the way (one exactly at
+    /// `t` included). A recoverable error leaves a valid state at the time
+    /// reached.
+    fn advance_to(&mut self, t: f64) -> Result<(), SimError>;
+    /// Advances to `t` or to the next event before it, whichever comes
+    /// first, stopping just before the event's discrete change. A kind
+    /// that does not stop at events handles them as [`Self::advance_to`].
+    fn advance_to_event(&mut self, t: f64) -> Result<Reached, SimError> {
+        self.advance_to(t).map(|()| Reached::Time)
+    }
+    /// Makes the discrete change of the events at the current time (after
+    /// [`Reached::Event`]); nothing otherwise.
+    fn apply_events(&mut self) -> Result<(), SimError> {
+        Ok(())
+    }
+    /// Applies the inputs (in [`Variables::inputs`] order).
+    fn set_inputs(&mut self, inputs: &[f64]) -> Result<(), SimError>;
+    /// Whether events are kept for [`Self::drain_events`].
+    fn set_event_recording(&mut self, on: bool);
+    /// The events since the last call.
+    fn drain_events(&mut self) -> Vec<EventRecord>;
+    /// Output `index` (in [`Variables::outputs`] order) now.
+    fn evaluate(&self, index: usize) -> Value;
+    /// Appends the state, versioned (see [`Scene::decode`]).
+    fn encode(&self, w: &mut Writer);
+    /// Work counters since the start.
+    fn work(&self) -> Work;
+    /// The exact flow of a closed-form kind, for shooting and continuation
+    /// (`None`: the kind integrates, and its flow has no exact Jacobian).
+    fn flow(&mut self) -> Option<&mut dyn Flow> {
+        None
+    }
+}
+
+/// What every run is besides its kind's answers: a copy (an FMU state),
+/// and its concrete type (a scene retunes only its own runs). Every
+/// `Run + Clone` has it.
+pub trait AnyRun {
+    fn boxed_clone(&self) -> Box<dyn Run>;
+    fn as_any(&self) -> &dyn Any;
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+impl<T: Run + Clone + 'static> AnyRun for T {
+    fn boxed_clone(&self) -> Box<dyn Run> {
+        Box::new(self.clone())
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
+
+impl Clone for Box<dyn Run> {
+    fn clone(&self) -> Self {
+        self.boxed_clone()
+    }
+}
+
+/// A closed-form kind's flow as a map of its state vector: the state now,
+/// and an advance that also returns the derivative of the state reached
+/// with respect to the state it started from (through every event, with
+/// each event's saltation matrix).
+pub trait Flow {
+    fn state(&self) -> DVector<f64>;
+    fn advance_with_jacobian(&mut self, t: f64) -> Result<DMatrix<f64>, SimError>;
+}
+
+/// What happened at an event, in the words every kind shares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EventClass {
+    /// A rigid impact (restitution).
+    Impact,
+    /// Sticking starts on a rigid stop.
+    Stick,
+    /// A stuck point leaves its stop.
+    Release,
+    /// A touch at zero velocity without impact.
+    Graze,
+    /// A compliant stop starts pushing.
+    ContactOnset,
+    /// A compliant stop's force reaches zero inside it.
+    PushEnd,
+    /// ... and turns positive again before the point leaves.
+    PushResumed,
+    /// A compliant contact ends.
+    Separation,
+}
+
+impl EventClass {
+    /// The word a results file uses.
+    pub fn word(self) -> &'static str {
+        match self {
+            EventClass::Impact => "impact",
+            EventClass::Stick => "stick",
+            EventClass::Release => "release",
+            EventClass::Graze => "graze",
+            EventClass::ContactOnset => "contact",
+            EventClass::PushEnd => "push-end",
+            EventClass::PushResumed => "push-resumed",
+            EventClass::Separation => "separation",
+        }
+    }
+}
+
+/// One event of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EventRecord {
+    pub time: f64,
+    pub class: EventClass,
+    /// Where: the stop's name.
+    pub at: String,
+    /// `key=value` details (speed, restitution, reaction ...).
+    pub detail: String,
+    /// One line for a log.
+    pub description: String,
+}
+
+/// A run's work since its start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Work {
+    pub events: u64,
+    /// Units of work, in what `unit` says.
+    pub units: u64,
+    pub unit: &'static str,
+}

@@ -1,0 +1,230 @@
+//! The switch locator of every integrated phase: the first zero of a set
+//! of watched functions along one accepted step's dense output (the
+//! collocation polynomial of a Radau step), located so that a dip between
+//! samples is not missed where it can be seen.
+//!
+//! **Samples.** The functions are evaluated at [`SAMPLES`] equally spaced
+//! points of the step; the first sample where one is negative brackets its
+//! zero with the sample before it, and bisection on the dense output
+//! locates it to an ulp: the first point past the zero. A function already
+//! negative at the bracket's start (by rounding, at the restart after a
+//! switch) is placed at the bracket's end, so that a search never moves
+//! on by a mere ulp.
+//! The bracket always starts at a sample of the step's own grid, so a
+//! search resumed inside a step finds bit for bit the zero an
+//! uninterrupted one finds.
+//!
+//! **Between samples.** A function that dips below zero and comes back
+//! between two samples (a graze, a rebound inside a sample interval)
+//! leaves both samples positive. For the functions that give a rate along
+//! the curve (gaps and penetrations: geometric functions) the locator
+//! also looks for interior minima: the rate at both ends and the middle of
+//! each sample interval, and, when these three fit a parabola whose vertex
+//! lies inside, at the vertex too; every change of sign from `-` to `+`
+//! is bisected to the minimum, and a negative minimum brackets a zero on
+//! its left. Were the curve exactly cubic and the function linear in it,
+//! the rate would be quadratic and these points would find every minimum;
+//! a miss needs two extrema within about a sixteenth of a step, a
+//! reversal faster than the error control lets the polynomial represent.
+//! Functions without a rate (forces) have no such search: a force that
+//! reaches zero and turns positive again within one sample interval is
+//! not seen (the laws clamp their force at zero, so the motion stays
+//! right).
+
+/// Samples of the watched functions per accepted step.
+pub const SAMPLES: usize = 8;
+
+/// Watched functions along one step's dense output.
+pub trait DenseWatch {
+    /// How many functions are watched.
+    fn count(&self) -> usize;
+    /// Every function's value at `t` into `out` (length [`Self::count`]).
+    fn values(&self, t: f64, out: &mut [f64]);
+    /// Function `i`'s value at `t`.
+    fn value(&self, i: usize, t: f64) -> f64;
+    /// Function `i`'s rate of change along the curve at `t`, for the
+    /// geometric functions whose dips between samples are searched
+    /// (`None` for the others).
+    fn rate(&self, i: usize, t: f64) -> Option<f64>;
+}
+
+/// A located switch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Located {
+    /// The first point found past the earliest zero.
+    pub time: f64,
+    /// The functions whose zero lies within a few ulps of it, each with
+    /// the slope of the chord that bracketed it (negative).
+    pub at_zero: Vec<(usize, f64)>,
+    /// The sample the bracket started at.
+    pub from: f64,
+}
+
+/// The first switch of the step `[t0, t1]` among the samples after
+/// `after` (samples at or before it were found clear), or `None`. A
+/// search resumed at a located switch's [`Located::from`] finds it again.
+pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Option<Located> {
+    let n = watch.count();
+    if n == 0 {
+        return None;
+    }
+    let h = t1 - t0;
+    let mut values = vec![0.0; n];
+    let mut previous = t0;
+    for k in 1..=SAMPLES {
+        let s = if k == SAMPLES { t1 } else { t0 + h * k as f64 / SAMPLES as f64 };
+        if s <= after {
+            previous = s;
+            continue;
+        }
+        watch.values(s, &mut values);
+        let mut roots: Vec<(usize, f64, f64)> = Vec::new();
+        for (i, &vs) in values.iter().enumerate() {
+            // The end of the bracket: the sample, or a negative minimum before it.
+            let end = if vs < 0.0 { Some((s, vs)) } else { negative_minimum(watch, i, previous, s).map(|tm| (tm, watch.value(i, tm))) };
+            if let Some((b, vb)) = end {
+                let va = watch.value(i, previous);
+                // A function already negative at the bracket's start (by
+                // rounding, after a switch) is placed at the bracket's end:
+                // the search moves on by a sample, never by an ulp.
+                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), previous, b) } else { b };
+                let slope = if b > previous { (vb - va.max(0.0)) / (b - previous) } else { -1.0 };
+                roots.push((i, root, slope.min(-f64::MIN_POSITIVE)));
+            }
+        }
+        if roots.is_empty() {
+            previous = s;
+            continue;
+        }
+        let time = roots.iter().map(|r| r.1).fold(f64::INFINITY, f64::min);
+        // Functions whose zero lies within a few ulps of the first.
+        let close = 4.0 * f64::EPSILON * time.abs().max(f64::MIN_POSITIVE);
+        let at_zero = roots.iter().filter(|r| r.1 - time <= close).map(|r| (r.0, r.2)).collect();
+        return Some(Located { time, at_zero, from: previous });
+    }
+    None
+}
+
+/// The first point in `(a, b]` past which `f` is negative, given
+/// `f(b) < 0`: the right end of a bisection bracket narrowed to an ulp
+/// (`f(a)` is taken as non-negative).
+fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
+    loop {
+        let m = 0.5 * (a + b);
+        if !(m > a && m < b) {
+            return b;
+        }
+        if f(m) < 0.0 {
+            b = m;
+        } else {
+            a = m;
+        }
+    }
+}
+
+/// The first interior minimum of function `i` in `(a, b)` that is
+/// negative, by the sign changes of its rate (module doc).
+fn negative_minimum(watch: &impl DenseWatch, i: usize, a: f64, b: f64) -> Option<f64> {
+    let rate = |t: f64| watch.rate(i, t);
+    let (da, db) = (rate(a)?, rate(b)?);
+    let m = 0.5 * (a + b);
+    let dm = rate(m)?;
+    let mut points = vec![(a, da), (m, dm), (b, db)];
+    // Parabola through the three: d(u) = dm + (db - da)/2 u + (db - 2 dm + da)/2 u^2, u in [-1, 1].
+    let curvature = 0.5 * (db - 2.0 * dm + da);
+    if curvature != 0.0 {
+        let u = -0.25 * (db - da) / curvature;
+        let v = m + u * 0.5 * (b - a);
+        if u.abs() < 1.0 && v > a && v < b && v != m {
+            points.push((v, rate(v)?));
+            points.sort_by(|p, q| p.0.total_cmp(&q.0));
+        }
+    }
+    for pair in points.windows(2) {
+        let ((mut lo, dl), (mut hi, dh)) = (pair[0], pair[1]);
+        if !(dl < 0.0 && dh >= 0.0) {
+            continue;
+        }
+        loop {
+            let mid = 0.5 * (lo + hi);
+            if !(mid > lo && mid < hi) {
+                break;
+            }
+            if rate(mid).unwrap_or(0.0) < 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        if watch.value(i, hi) < 0.0 {
+            return Some(hi);
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Functions of time given in closed form, with their rates.
+    struct Curves(Vec<(fn(f64) -> f64, Option<fn(f64) -> f64>)>);
+
+    impl DenseWatch for Curves {
+        fn count(&self) -> usize {
+            self.0.len()
+        }
+        fn values(&self, t: f64, out: &mut [f64]) {
+            for (o, (f, _)) in out.iter_mut().zip(&self.0) {
+                *o = f(t);
+            }
+        }
+        fn value(&self, i: usize, t: f64) -> f64 {
+            (self.0[i].0)(t)
+        }
+        fn rate(&self, i: usize, t: f64) -> Option<f64> {
+            self.0[i].1.map(|r| r(t))
+        }
+    }
+
+    #[test]
+    fn finds_a_sign_change_to_an_ulp() {
+        let c = Curves(vec![(|t| 0.3 - t, Some(|_| -1.0))]);
+        let s = first_switch(&c, 0.0, 1.0, 0.0).unwrap();
+        assert!(s.time >= 0.3 && s.time <= 0.3 + 2.0 * f64::EPSILON, "{}", s.time);
+        assert_eq!(s.at_zero.len(), 1);
+        assert!((s.at_zero[0].1 + 1.0).abs() < 1e-9, "slope {}", s.at_zero[0].1);
+    }
+
+    #[test]
+    fn finds_a_dip_between_samples_only_with_a_rate() {
+        // Negative on (0.52, 0.53) only: both neighbouring samples (0.5, 0.625) positive.
+        let dip = |t: f64| (t - 0.525) * (t - 0.525) - 2.5e-5;
+        let rate = |t: f64| 2.0 * (t - 0.525);
+        let with_rate = Curves(vec![(dip, Some(rate))]);
+        let s = first_switch(&with_rate, 0.0, 1.0, 0.0).expect("the dip");
+        assert!((s.time - 0.52).abs() < 1e-12, "{}", s.time);
+        let without = Curves(vec![(dip, None)]);
+        assert_eq!(first_switch(&without, 0.0, 1.0, 0.0), None);
+    }
+
+    #[test]
+    fn reports_simultaneous_zeros_and_resumes_on_the_step_s_grid() {
+        let c = Curves(vec![(|t| 0.7 - t, None), (|t| 2.0 * (0.7 - t), None), (|t| 0.9 - t, None)]);
+        let s = first_switch(&c, 0.0, 1.0, 0.0).unwrap();
+        let mut which: Vec<usize> = s.at_zero.iter().map(|z| z.0).collect();
+        which.sort();
+        assert_eq!(which, vec![0, 1]);
+        // Resumed past the first zero, with the third function alone: its
+        // zero, bracketed on the step's grid, bit for bit as an
+        // uninterrupted search finds it.
+        let third = Curves(vec![(|t| 0.9 - t, None)]);
+        let later = first_switch(&third, 0.0, 1.0, 0.8).unwrap();
+        let from_start = first_switch(&third, 0.0, 1.0, 0.0).unwrap();
+        assert!((later.time - 0.9).abs() < 1e-15 && later.at_zero.len() == 1);
+        assert_eq!(later.time, from_start.time);
+        // Resumed at the sample its bracket started from: found again.
+        let again = first_switch(&third, 0.0, 1.0, from_start.from).unwrap();
+        assert_eq!(again.time, from_start.time);
+    }
+}
