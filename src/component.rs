@@ -127,8 +127,25 @@ impl Component {
     /// Sets parameter `index`; [`Self::validate`] then says whether the
     /// values still form a scene.
     pub fn set(&mut self, index: usize, value: f64) {
-        let path = &self.variables.parameters[index].scene_path;
-        self.scene = crate::fields::set(&mut self.json, path, value).and_then(|()| self.kind.load(&self.json).map(Arc::from));
+        self.set_many([(index, value)]);
+    }
+
+    /// Sets several parameters (`(index, value)`) and reads the scene once
+    /// (not at all when no value changes: the scene, and what its runs
+    /// share, such as a built model, stay).
+    pub fn set_many(&mut self, values: impl IntoIterator<Item = (usize, f64)>) {
+        let mut written = Ok(false);
+        for (index, value) in values {
+            let path = &self.variables.parameters[index].scene_path;
+            if crate::fields::get(&self.json, path).is_ok_and(|v| v.to_bits() == value.to_bits()) {
+                continue;
+            }
+            written = written.and_then(|_| crate::fields::set(&mut self.json, path, value).map(|()| true));
+        }
+        if written == Ok(false) && self.scene.is_ok() {
+            return;
+        }
+        self.scene = written.and_then(|_| self.kind.load(&self.json).map(Arc::from));
     }
 
     /// A run from the scene's initial state at `start_time` (a message

@@ -308,7 +308,7 @@ impl Instance {
         // Check every value first: a rejected call changes nothing.
         let mut scene = self.scene.clone();
         let mut inputs = self.inputs.clone();
-        let mut parameters_changed = false;
+        let mut parameters = Vec::new();
         for (vr, value) in vrs.iter().zip(values) {
             let v = self.variable(f, *vr, VarType::Real)?;
             match v.binding {
@@ -326,8 +326,7 @@ impl Instance {
                     if let Err(m) = p.range.check(&format!("'{}'", p.name), *value) {
                         return Err(self.fail(&format!("fmi2SetReal: {m}")));
                     }
-                    scene.set(i, *value);
-                    parameters_changed = true;
+                    parameters.push((i, *value));
                 }
                 Binding::Input(i) => {
                     let input = &self.table.interface.inputs[i];
@@ -340,6 +339,10 @@ impl Instance {
                     return Err(self.fail(&format!("fmi2SetReal: '{}' (value reference {vr}) is an output and cannot be set", v.name)));
                 }
             }
+        }
+        let parameters_changed = !parameters.is_empty();
+        if parameters_changed {
+            scene.set_many(parameters);
         }
         let inputs_changed = inputs != self.inputs;
         match self.sim.as_mut() {
@@ -461,9 +464,7 @@ impl Instance {
 
     pub fn restore(&mut self, s: &Snapshot) {
         let mut scene = self.packaged.clone();
-        for (i, v) in s.parameters.iter().enumerate() {
-            scene.set(i, *v);
-        }
+        scene.set_many(s.parameters.iter().copied().enumerate());
         self.scene = scene;
         self.machine = s.machine;
         self.inputs = s.inputs.clone();
@@ -480,9 +481,7 @@ impl Instance {
     /// serialized states).
     pub fn scene_with(&self, parameters: &[f64]) -> Component {
         let mut scene = self.packaged.clone();
-        for (i, v) in parameters.iter().enumerate() {
-            scene.set(i, *v);
-        }
+        scene.set_many(parameters.iter().copied().enumerate());
         scene
     }
 }

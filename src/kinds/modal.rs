@@ -2,7 +2,7 @@
 //! simulation ([`crate::sim`]): scene files with a `structure`, exact
 //! between events.
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use serde_json::Value as Json;
 
@@ -29,7 +29,7 @@ impl Kind for ModalKind {
         let scene: crate::scene::Scene = serde_json::from_value(scene.clone()).map_err(|e| format!("scene: {e}"))?;
         scene.validate().map_err(|e| e.0)?;
         let outputs = interface::outputs(&scene).into_iter().map(|(key, _)| key).collect();
-        Ok(Box::new(ModalScene { scene, outputs }))
+        Ok(Box::new(ModalScene { scene, outputs, model: OnceLock::new() }))
     }
 }
 
@@ -38,11 +38,14 @@ struct ModalScene {
     scene: crate::scene::Scene,
     /// What each output (in the variables' order) reads.
     outputs: Arc<[OutputKey]>,
+    /// The model, built once for every run of this scene (a master that
+    /// restores states over and over pays for it once).
+    model: OnceLock<Result<Model, String>>,
 }
 
 impl ModalScene {
     fn model(&self) -> Result<Model, SimError> {
-        Model::build(&self.scene).map_err(|e| SimError::Scene(e.0))
+        self.model.get_or_init(|| Model::build(&self.scene).map_err(|e| e.0)).clone().map_err(SimError::Scene)
     }
 }
 

@@ -1,7 +1,7 @@
 //! The rotating hub beam as a kind of simulation ([`crate::rotating`]):
 //! scene files with a `beam` and no `structure`, integrated throughout.
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use serde_json::Value as Json;
 
@@ -26,7 +26,7 @@ impl Kind for RotatingKind {
         let spec: RotatingSpec = serde_json::from_value(scene.clone()).map_err(|e| format!("rotating scene: {e}"))?;
         spec.validate()?;
         let outputs = interface::outputs(&spec).into_iter().map(|(key, _)| key).collect();
-        Ok(Box::new(RotatingScene { spec, outputs }))
+        Ok(Box::new(RotatingScene { spec, outputs, model: OnceLock::new() }))
     }
 }
 
@@ -35,6 +35,14 @@ struct RotatingScene {
     spec: RotatingSpec,
     /// What each output (in the variables' order) reads.
     outputs: Arc<[RotatingOutput]>,
+    /// The model, built once for every run of this scene.
+    model: OnceLock<Result<Arc<RotatingModel>, String>>,
+}
+
+impl RotatingScene {
+    fn model(&self) -> Result<Arc<RotatingModel>, String> {
+        self.model.get_or_init(|| RotatingModel::new(&self.spec).map(Arc::new)).clone()
+    }
 }
 
 impl Scene for RotatingScene {
@@ -72,7 +80,7 @@ impl Scene for RotatingScene {
     }
 
     fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError> {
-        let mut sim = RotatingSimulation::from_spec(&self.spec, start_time)?;
+        let mut sim = RotatingSimulation::new(self.model().map_err(SimError::Scene)?, start_time)?;
         if let Some(&torque) = inputs.first() {
             sim.set_torque(torque)?;
         }
@@ -80,8 +88,7 @@ impl Scene for RotatingScene {
     }
 
     fn decode(&self, inputs: &[f64], r: &mut Reader) -> Result<Box<dyn Run>, String> {
-        let model = Arc::new(RotatingModel::new(&self.spec)?);
-        let sim = RotatingSimulation::decode(model, r)?;
+        let sim = RotatingSimulation::decode(self.model()?, r)?;
         let torque = inputs.first().copied().unwrap_or(0.0);
         if sim.torque() != torque {
             return Err(format!("rotating state: torque {} differs from the saved input {torque}", sim.torque()));
