@@ -1,5 +1,5 @@
 //! Speed, measured with criterion (`cargo bench`):
-//! - the seed's Figure 10 regime (F = 72, omega = 0.7 pi^2, d = 1.2, R = 0.7,
+//! - VSM12's Figure 10 regime (F = 72, omega = 0.7 pi^2, d = 1.2, R = 0.7,
 //!   zeta = 0.05, eps = 1e-3) over 60 forcing periods, natively;
 //! - the Figure 4 scene (chatter and sticking) over 20 time units;
 //! - one fmi2DoStep without an event, through the exported C functions.

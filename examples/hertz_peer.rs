@@ -57,7 +57,7 @@
 //! [--stiffness-csv PATH] [--reps N] [--reference dop853cap14|dop853cap|beamstop]`
 //!
 //! `--dump` writes the modal system, the tolerance scales and the reference
-//! (grid and onsets) as JSON, for the scipy runs of `tools/report/hertz.py`.
+//! (grid and onsets) as JSON, for the scipy runs of `python/beamstop_tools/report/hertz.py`.
 //! `--stiffness-csv` runs the scene at K = 1e6, 1e8, 1e10, 1e12 and its own K
 //! (tol 1e-10) and
 //! writes the event-search probes per contact phase (`Simulation::stats`:

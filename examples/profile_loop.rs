@@ -1,4 +1,4 @@
-//! A loop of runs to profile: S2 (the seed's Figure 10 regime, 60 forcing
+//! A loop of runs to profile: S2 (VSM12's Figure 10 regime, 60 forcing
 //! periods) or S3 (the Figure 4 scene, 20 time units) at N modes, `reps`
 //! times, printing the event-search points of all runs. Not a benchmark
 //! (criterion and `examples/rigid_peer.rs` time things); it gives `perf`

@@ -2,7 +2,7 @@
 //! sticking): beamstop against the strongest compiled peer a skilled user
 //! would write, side by side in one process (GitHub issue 10, item 1).
 //!
-//! Scenes (seed 000, Vyasarayani, Sandhu & McPhee 2012, pinned-pinned beam,
+//! Scenes (VSM12: Vyasarayani, Sandhu & McPhee 2012, pinned-pinned beam,
 //! 4 modes, stop at x = 0.4, zeta = 0.05, R = 0.7):
 //! - `S2`: Figure 10 regime, F = 72, Omega = 0.7 pi^2, d = 1.2, eps = 1e-3,
 //!   60 forcing periods from rest (two impacts per period once settled);
@@ -13,14 +13,14 @@
 //! The peer integrates the same modal system, built by beamstop's public API
 //! (`Model::build`: `omega_j`, `a_j`, `w_j = W_j(x_s)`, the harmonic load),
 //! written out as a first-order system `y = (q, q')`:
-//! - free flight: `q'' = f(t) - 2 a q' - omega^2 q` (seed 000, eq. 14);
+//! - free flight: `q'' = f(t) - 2 a q' - omega^2 q` (VSM12 eq. 14);
 //! - impact when the gap `d - w.q` falls through zero: `q'+ = q'- - (1 + r)
-//!   (w.q'-) w / (w.w)` (seed 000, eq. 28), `r = R`, or `r = 0` when the
+//!   (w.q'-) w / (w.w)` (VSM12 eq. 28), `r = R`, or `r = 0` when the
 //!   previous impact of the sequence is less than eps ago (the chatter rule);
 //!   after an `r = 0` impact the beam sticks if the reaction presses it on
 //!   the stop (state projected onto `w.q = d`, `w.q' = 0`);
 //! - sticking: the free acceleration projected onto `w.q'' = 0`, reaction
-//!   `lambda = (w.(K q + D q') - w.f) / (w.w)` (seed 000, eq. 32), released
+//!   `lambda = (w.(K q + D q') - w.f) / (w.w)` (VSM12 eq. 32), released
 //!   when lambda crosses zero upwards.
 //! Integrator: DOP853 (`peer/dop853.rs`, scipy's tableau and controller),
 //! compiled, no allocation per step. Events: after every accepted step the
@@ -151,7 +151,7 @@ impl Beam {
         self.gap - dot(&self.w, &y[..self.n])
     }
 
-    /// The reaction as seed 000 eq. 32 writes it (negative: pressed).
+    /// The reaction as VSM12 eq. 32 writes it (negative: pressed).
     fn lambda(&self, t: f64, y: &[f64]) -> f64 {
         dot(&self.lam_row, y) - self.load_along_w(t)
     }

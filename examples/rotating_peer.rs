@@ -1,5 +1,5 @@
 //! Error against run time for the rotating hub beam's Hertz tip contact
-//! (seed: Duan, Wang & Zhang, "Impact dynamics of a flexible beam with
+//! (DWZ: Duan, Wang & Zhang, "Impact dynamics of a flexible beam with
 //! rotation"; scene `scenes/rotating_beam.json`: aluminium beam, 6
 //! clamped-free modes, first-order model, J_h = 0.05 kg m^2, tip on the
 //! plane at t = 0 with theta' = 2 rad/s, Hertz K = 7.6e9 N/m^1.5 with
@@ -13,7 +13,7 @@
 //!
 //! **The peer**: DOP853 (`peer/dop853.rs`, order 8, 7th-order dense output)
 //! with its own compiled event loop on the same equations `J(z) z'' = Q`
-//! (first-order model, `crate::structure::rotating`; seed Eq. 15). The model
+//! (first-order model, `crate::structure::rotating`; DWZ eq. 15). The model
 //! is shared: the peer takes the assembled matrices `M`, `M - D`, `K`,
 //! `Gamma`, `C_L`, `w`, `J_h + J_b` from `RotatingModel`, but evaluates the
 //! right-hand side itself, without allocation, by block elimination of `J`
@@ -25,7 +25,7 @@
 //! at random states in contact (printed; must agree to 1e-11).
 //!
 //! Phases and switches are those of `src/rotating/events.rs`, with the law
-//! `F = K g^1.5 (1 + 3 (1 - e^2) / 4 g' / v0)` (seed Eqs. 2-4 with
+//! `F = K g^1.5 (1 + 3 (1 - e^2) / 4 g' / v0)` (DWZ eqs. 2-4 with
 //! Lankarani-Nikravesh damping; `v0` the approach speed at the onset):
 //! open (F = 0) watching the gap; pressed (F = raw force) watching the force
 //! and the penetration; penetrated (F = 0, g > 0) watching the negated force
@@ -50,7 +50,7 @@
 //! Tolerances: rtol = tol, atol = tol times 1e-3 (m for `B`, rad for
 //! theta) and 0.1 (m/s, rad/s) for the rates.
 //!
-//! Measures (computed by `tools/report/rotating_peers.py` against the
+//! Measures (computed by `python/beamstop_tools/report/rotating_peers.py` against the
 //! reference; this program prints a first table against `dop853cap` at
 //! 1e-14): the first contact's peak force, the number of contacts (onsets),
 //! the onset times, and at `T_END` the tip position, theta and theta'.
@@ -62,7 +62,7 @@
 //! `cargo run --release --example rotating_peer -- [--json PATH] [--reps N] [--quick]`
 //!
 //! `--json` writes every run (the measures, the work), the scene's numbers
-//! for the scipy runs of `tools/report/rotating_peers.py`, and the library's
+//! for the scipy runs of `python/beamstop_tools/report/rotating_peers.py`, and the library's
 //! `z''` at a few random states (for the independent Python equations).
 
 #[path = "peer/brent.rs"]

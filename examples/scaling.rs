@@ -1,18 +1,18 @@
 //! Run time against the number of modes (GitHub issue 10, item 5), for a
 //! rigid stop and a spring stop, natively:
 //!
-//! - `rigid`: S2, the pinned beam of seed 000 (Vyasarayani, Sandhu & McPhee
+//! - `rigid`: S2, the pinned beam of VSM12 (Vyasarayani, Sandhu & McPhee
 //!   2012) at F = 72, Omega = 0.7 pi^2, d = 1.2, restitution 0.7 with
 //!   eps = 1e-3, 60 forcing periods: impacts, chatter and sticking (the
 //!   sticking phases run on the coupled path);
-//! - `spring`: `scenes/spring_stop_hard.json` (seed 001's cantilever with a
+//! - `spring`: `scenes/spring_stop_hard.json` (RMTM's cantilever with a
 //!   hard linear spring stop, kappa = 100), 60 forcing periods: every
 //!   contact phase runs on the coupled path.
 //!
 //! `cargo run --release --example scaling -- [--csv FILE] [N ...]` prints,
 //! per case and N, the model build time (modes, projections), the run time
 //! (minimum over repeats of `Simulation::new` + `advance_to`), the event
-//! search points, the events and the contacts. `tools/report/scaling.py`
+//! search points, the events and the contacts. `python/beamstop_tools/report/scaling.py`
 //! plots the CSV.
 use std::f64::consts::PI;
 use std::io::Write;

@@ -1,5 +1,5 @@
 //! The strongest compiled peer a skilled user would write for the
-//! spring-stop cantilever (seed 001), against beamstop: error and run time.
+//! spring-stop cantilever (RMTM), against beamstop: error and run time.
 //!
 //! Both solve the identical modal system, built by beamstop's public API:
 //! `q_j'' + 2 a_j q_j' + omega_j^2 q_j = f_j(t) - side k p W_j(L)` with the

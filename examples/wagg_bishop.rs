@@ -1,4 +1,5 @@
-//! The measurements quoted in the README against seed 003 (Wagg & Bishop):
+//! The measurements docs/verification.md quotes against WB00 (Wagg & Bishop
+//! 2000; docs/references.md):
 //! `cargo run --release --example wagg_bishop`.
 //!
 //! 1. The two-mass chain (Fig. 2 parameters): the P(1,1) orbit it settles

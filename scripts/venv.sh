@@ -1,13 +1,17 @@
 # Sourced by the other scripts: creates .venv with the pinned requirements
-# (again whenever requirements.txt changes) and activates it.
+# and the project's package beamstop_tools (python/, installed editable), again
+# whenever requirements.txt or python/pyproject.toml changes, and activates it.
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="$root/.venv"
 stamp="$venv/.requirements"
-if [ ! -x "$venv/bin/python" ] || ! cmp -s "$root/requirements.txt" "$stamp"; then
-    echo "setting up $venv (pinned requirements.txt)" >&2
+if [ ! -x "$venv/bin/python" ] || ! cat "$root/requirements.txt" "$root/python/pyproject.toml" | cmp -s - "$stamp"; then
+    echo "setting up $venv (pinned requirements.txt, beamstop_tools editable)" >&2
     python3 -m venv "$venv"
     "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$root/requirements.txt"
-    cp "$root/requirements.txt" "$stamp"
+    # The package's build backend is the pinned setuptools just installed.
+    "$venv/bin/python" -m pip install --quiet --disable-pip-version-check --no-build-isolation --no-deps \
+        -e "$root/python"
+    cat "$root/requirements.txt" "$root/python/pyproject.toml" > "$stamp"
 fi
 # shellcheck disable=SC1091
 source "$venv/bin/activate"

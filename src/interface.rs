@@ -254,7 +254,7 @@ impl Limits {
     }
 
     /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness
-    /// `m omega_low^2` of the slowest mode (seed 001's hardest case, kappa =
+    /// `m omega_low^2` of the slowest mode (RMTM's hardest case, kappa =
     /// 1e4, is about 1e-10 of it): beyond, the contact phase's frequency
     /// would exceed the slowest mode's by 1e7 and the penetration drown in
     /// the rounding of the deflection.
@@ -506,7 +506,7 @@ pub fn outputs(scene: &Scene) -> Vec<(OutputKey, Output)> {
             push(
                 OutputKey::ForcingEnergy(j),
                 mode_name(&scene.names, "FE", "FE[{j}]", j),
-                format!("Work of the loads on mode {} since the start (seed 003 eq. 8, FE_j)", j + 1),
+                format!("Work of the loads on mode {} since the start (WB00 eq. 8, FE_j)", j + 1),
                 Unit::Joule,
                 real,
                 false,
@@ -516,7 +516,7 @@ pub fn outputs(scene: &Scene) -> Vec<(OutputKey, Output)> {
             push(
                 OutputKey::DampingEnergy(j),
                 mode_name(&scene.names, "DE", "DE[{j}]", j),
-                format!("Energy dissipated by the damping of mode {} since the start (seed 003 eq. 8, DE_j)", j + 1),
+                format!("Energy dissipated by the damping of mode {} since the start (WB00 eq. 8, DE_j)", j + 1),
                 Unit::Joule,
                 real,
                 false,

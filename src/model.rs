@@ -2,7 +2,7 @@
 //! sensors and inputs as shape vectors. Plain numbers, ready for the solver.
 //!
 //! Internally modal coordinates are mass-normalised (`q'' + 2 zeta omega q'
-//! + omega^2 q = f`, seed 000 eq. 13); `coordinate_scale` converts them to
+//! + omega^2 q = f`, VSM12 eq. 13); `coordinate_scale` converts them to
 //! the displacement units the interface shows.
 
 use nalgebra::{DMatrix, DVector};
@@ -49,20 +49,20 @@ pub struct Model {
     pub max_events_per_step: u64,
     /// Event-search points allowed within one call to advance (events included).
     pub max_probes_per_step: u64,
-    /// Accumulate seed 003's energy balance (FE_j, DE_j, impact losses).
+    /// Accumulate WB00's energy balance (FE_j, DE_j, impact losses).
     pub energy_balance: bool,
     /// Keep each stop's impulse (the scene outputs it); without it the
     /// impulses are not integrated and read 0.
     pub impulses: bool,
-    /// Mode transfer (seed 001's MTM, RMTM) for the one tip stop that asks
+    /// Mode transfer (RMTM's MTM and RMTM methods) for the one tip stop that asks
     /// for it: the basis its contact phases use.
     pub transfer: Option<TransferBasis>,
     /// The contact phases' decompositions, shared by the model's clones.
     pub phase_systems: SystemCache,
 }
 
-/// The modes of the cantilever with the tip spring (seed 001's contact
-/// phase) and everything the model projects on them.
+/// The modes of the cantilever with the tip spring (the contact phase
+/// of RMTM's mode transfer) and everything the model projects on them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferBasis {
     pub method: ContactMethod,

@@ -21,7 +21,7 @@ pub struct Scene {
     pub name: String,
     #[serde(default)]
     pub description: String,
-    /// `scaled` (the seeds' dimensionless units) or `SI`.
+    /// `scaled` (dimensionless, as in VSM12 and WB00) or `SI`.
     #[serde(default)]
     pub units: Units,
     pub structure: StructureSpec,
@@ -52,7 +52,8 @@ pub struct Scene {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum Units {
-    /// The seeds' dimensionless units: every quantity has unit "1".
+    /// Dimensionless units (VSM12's `x = X/L`, `w = Z/L`, scaled time; WB00's
+    /// chain): every quantity has unit "1".
     #[default]
     #[serde(rename = "scaled")]
     Scaled,
@@ -79,7 +80,7 @@ pub enum StructureSpec {
         #[serde(default, rename = "A", skip_serializing_if = "Option::is_none")]
         area: Option<f64>,
     },
-    /// The uniform N-mass chain of seed 003: masses `m`, springs `k` and
+    /// The uniform N-mass chain of WB00: masses `m`, springs `k` and
     /// dampers `c` from the ground to mass 1 and between neighbours.
     Chain { masses: usize, m: f64, k: f64, c: f64 },
 }
@@ -119,7 +120,7 @@ pub enum Waveform {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Load {
-    /// `amplitude sin(omega t)` per unit length over the whole span (seed 000 eq. 4).
+    /// `amplitude sin(omega t)` per unit length over the whole span (VSM12 eq. 4).
     DistributedHarmonic {
         name: String,
         amplitude: f64,
@@ -129,7 +130,7 @@ pub enum Load {
         #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
         names: Names,
     },
-    /// A harmonic point force at `x` (beam) or on `mass` (chain; seed 003's
+    /// A harmonic point force at `x` (beam) or on `mass` (chain; WB00's
     /// forcing vector `A cos(Omega t)`).
     PointHarmonic {
         name: String,
@@ -186,7 +187,7 @@ impl Actuator {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Side {
-    /// The stop limits `w <= gap` (seed 000: `w(x_i) <= d`).
+    /// The stop limits `w <= gap` (VSM12: `w(x_i) <= d`).
     #[default]
     Positive,
     /// The stop limits `w >= -gap`.
@@ -273,7 +274,7 @@ pub struct OutputChoice {
     /// Modal coordinates `q[j]`, `qd[j]`.
     #[serde(default = "yes")]
     pub modal: bool,
-    /// Seed 003's modal forcing energy `FE[j]`, damping energy `DE[j]`
+    /// WB00's modal forcing energy `FE[j]`, damping energy `DE[j]`
     /// (eq. 8) and the energy lost at impacts, accumulated from the start.
     #[serde(default)]
     pub energy_balance: bool,
@@ -498,7 +499,7 @@ impl Scene {
                 Range::POSITIVE.check("structure.k", *k).map_err(SceneError)?;
                 Range::NON_NEGATIVE.check("structure.c", *c).map_err(SceneError)?;
                 if self.damping.is_some() {
-                    return err("damping: a chain's damping is structure.c (seed 003: C = c E); remove \"damping\"".into());
+                    return err("damping: a chain's damping is structure.c (WB00: C = c E); remove \"damping\"".into());
                 }
             }
         }

@@ -1,4 +1,4 @@
-//! The Hertz stop `F = max(0, K p^1.5 + damping)` (seed 004 eqs. 2-4),
+//! The Hertz stop `F = max(0, K p^1.5 + damping)` (DWZ eqs. 2-4),
 //! whose contact phases are integrated (Radau IIA), against independent
 //! computations: a fine-step RK4 integration of the same modal equations
 //! with its own switch location, conservation of energy, the classical

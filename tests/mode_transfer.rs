@@ -1,8 +1,8 @@
-//! Seed 001's three methods on its hard-impact cantilever: mode transfer
+//! RMTM's three methods on its hard-impact cantilever: mode transfer
 //! (MTM, RMTM: the contact phase in the modes of the cantilever with the
 //! tip spring) converges to force integration (FIM: the spring on the
 //! cantilever's own modes) as the number of modes grows, once all three
-//! damp the same continuum; RMTM needs far fewer modes (the seed's finding).
+//! damp the same continuum; RMTM needs far fewer modes (RMTM's finding).
 //! The tip-spring modes themselves are checked against a Rayleigh-Ritz
 //! computation in `src/structure/tip_spring.rs`.
 
@@ -58,7 +58,7 @@ fn mode_transfer_converges_to_force_integration() {
 
 #[test]
 fn modal_damping_in_each_basis_is_a_different_continuum() {
-    // The seed damps each basis modally: in contact the tip-spring modes
+    // RMTM damps each basis modally: in contact the tip-spring modes
     // carry zeta, not the cantilever's. Both converge in N, to limits
     // apart by more than either's truncation error.
     let gap = 1e-3;

@@ -1,6 +1,6 @@
-//! The pinned-pinned beam of seed 000 against independent computations:
+//! The pinned-pinned beam of VSM12 against independent computations:
 //! a fine-step RK4 integration with its own impact handling, closed forms,
-//! conservation laws and the seed's own formulas (eqs. 28 and 33).
+//! conservation laws and VSM12's own formulas (eqs. 28 and 33).
 
 use std::f64::consts::{PI, SQRT_2};
 
@@ -25,7 +25,7 @@ fn sim(scene: &Scene) -> Simulation {
     Simulation::new(Model::build(scene).unwrap(), 0.0).unwrap()
 }
 
-/// The free-vibration scene of seed 000 section 3: w(x, 0) = -3 sin(pi x).
+/// The free-vibration scene of VSM12 section 3: w(x, 0) = -3 sin(pi x).
 fn free_vibration(r: f64) -> Scene {
     with(
         pinned_scene(),
@@ -70,7 +70,7 @@ fn energy_is_conserved_with_perfectly_elastic_impacts() {
 #[test]
 fn energy_lost_per_impact_is_the_restitution_formula() {
     // No load, no damping: energy changes only at impacts, by
-    // (1 - R^2)(w . qd-)^2 / (2 w . w) (seed 000 eq. 28 with Kelvin's loss), computed here from the
+    // (1 - R^2)(w . qd-)^2 / (2 w . w) (VSM12 eq. 28 with Kelvin's loss), computed here from the
     // pre-impact state read just before each impact.
     let scene = free_vibration(0.6);
     let model = Model::build(&scene).unwrap();
@@ -114,10 +114,10 @@ fn every_impact_puts_the_contact_point_exactly_on_the_stop() {
     }
 }
 
-/// The sticking reaction evaluated independently from the state: seed 000
+/// The sticking reaction evaluated independently from the state: VSM12
 /// eq. 32 solved for lambda. (Eq. 33 as printed carries the opposite sign
 /// on the `omega^2 q + 2 zeta omega qd` term; eq. 32 fixes it.)
-fn seed_reaction(model: &Model, t: f64, q: &DVector<f64>, qd: &DVector<f64>) -> f64 {
+fn vsm12_reaction(model: &Model, t: f64, q: &DVector<f64>, qd: &DVector<f64>) -> f64 {
     let (f_amp, omega) = (76.8, 0.1 * PI * PI);
     let w = &model.stops[0].geometry.w;
     let mut num_f = 0.0;
@@ -149,7 +149,7 @@ fn sticking_holds_the_constraint_and_a_compressive_reaction_equal_to_eq_33() {
             assert!(w.dot(&c.qd).abs() < 1e-11, "contact velocity {:e} while stuck", w.dot(&c.qd));
             let lambda = s.reaction(0);
             assert!(lambda <= 1e-9, "lambda = {lambda} > 0 while stuck at t = {t}");
-            let independent = seed_reaction(&model, t, &c.q, &c.qd);
+            let independent = vsm12_reaction(&model, t, &c.q, &c.qd);
             assert!((lambda - independent).abs() < 1e-9 * (1.0 + independent.abs()), "{lambda} vs eq. 32 {independent}");
         }
     }
@@ -174,7 +174,7 @@ fn release_happens_where_the_reaction_changes_sign() {
             before.advance_to(tt).unwrap();
             assert!(before.is_stuck(0), "not stuck at {tt}, before the release at {t}");
             let c = before.current().clone();
-            seed_reaction(&model, tt, &c.q, &c.qd)
+            vsm12_reaction(&model, tt, &c.q, &c.qd)
         };
         let (l2, l1) = (lambda_at(t - 2.0 * delta), lambda_at(t - delta));
         assert!(l2 < l1 && l1 < 0.0, "lambda {l2}, {l1} before the release at {t}");
@@ -316,7 +316,7 @@ fn an_initial_state_through_the_stop_is_refused() {
 
 /// An independent reference: RK4 with a small fixed step on the modal
 /// equations, the impact located by bisection on re-integrated sub-steps,
-/// the seed's eq. 28 applied. It shares no code with the library.
+/// VSM12 eq. 28 applied. It shares no code with the library.
 fn rk4_impacts(n: usize, f_amp: f64, omega: f64, zeta: f64, r: f64, gap: f64, q0: &[f64], t_end: f64) -> Vec<f64> {
     let x_s = 0.4;
     let w: Vec<f64> = (1..=n).map(|j| SQRT_2 * (j as f64 * PI * x_s).sin()).collect();
@@ -369,7 +369,7 @@ fn rk4_impacts(n: usize, f_amp: f64, omega: f64, zeta: f64, r: f64, gap: f64, q0
             let wv: f64 = vi.iter().zip(&w).map(|(a, b)| a * b).sum();
             let ww: f64 = w.iter().map(|x| x * x).sum();
             for j in 0..n {
-                vi[j] -= (1.0 + r) * wv * w[j] / ww; // seed 000 eq. 28
+                vi[j] -= (1.0 + r) * wv * w[j] / ww; // VSM12 eq. 28
             }
             t += lo;
             q = qi;
@@ -386,7 +386,7 @@ fn rk4_impacts(n: usize, f_amp: f64, omega: f64, zeta: f64, r: f64, gap: f64, q0
 
 #[test]
 fn impact_times_match_an_independent_rk4_integration() {
-    // Forced, damped, R = 0.7, gap 1.2: the seed's Figure 10 regime
+    // Forced, damped, R = 0.7, gap 1.2: VSM12's Figure 10 regime
     // (two impacts per period), 3 forcing periods.
     let omega = 0.7 * PI * PI;
     let scene = with(

@@ -207,7 +207,7 @@ fn restored_energy_balance_is_validated() {
 }
 
 /// The energy balance's quadrature counts against the same cap: a chain
-/// with seed 003's accounting, loaded at the fastest admitted frequency,
+/// with WB00's accounting, loaded at the fastest admitted frequency,
 /// over a step a thousand times its horizon, stops at the cap promptly.
 #[test]
 fn the_energy_balance_counts_against_the_cap() {

@@ -222,7 +222,7 @@ fn b_kane_ryan_banerjee_spin_up() {
     assert!(t_div.is_some_and(|t| t < 15.0));
 }
 
-/// The seed beam 1 cm from the plane, swinging into it with some vibration.
+/// The DWZ beam 1 cm from the plane, swinging into it with some vibration.
 fn approach_spec(k: f64, n: usize) -> RotatingSpec {
     let mut spec = scene("rotating_beam");
     spec.n_modes = n;
@@ -350,7 +350,7 @@ fn engine_first_contact(spec: &RotatingSpec) -> (f64, f64, f64, DVector<f64>, be
     unreachable!()
 }
 
-/// (c) One impact of the seed beam (K = 7.6e9, Lankarani-Nikravesh e = 0.8)
+/// (c) One impact of the DWZ beam (K = 7.6e9, Lankarani-Nikravesh e = 0.8)
 /// against an RK4 reference with its own switch location.
 #[test]
 fn c_single_impact_against_rk4() {
@@ -686,7 +686,7 @@ fn simpson(f: &[f64], dt: f64) -> f64 {
     (0..f.len() / 2).map(|k| dt / 3.0 * (f[2 * k] + 4.0 * f[2 * k + 1] + f[2 * k + 2])).sum()
 }
 
-/// A prescribed spin-up of the seed beam (no surface unless given).
+/// A prescribed spin-up of the DWZ beam (no surface unless given).
 fn spin_up_spec(omega_s: f64, duration: f64) -> RotatingSpec {
     let mut spec = scene("rotating_beam");
     spec.surface = None;
@@ -698,8 +698,8 @@ fn spin_up_spec(omega_s: f64, duration: f64) -> RotatingSpec {
 
 /// (i) J_h -> 0. A torque-driven hub with J_h = 0 is refused with a message
 /// naming the field. J_h = 1e-4 and 1e-6 kg m^2 (the Schur complement
-/// `J_b - Gamma^T M^-1 Gamma` of the seed beam is 5.4e-5 kg m^2) through the
-/// seed scene's collision cluster either run with the contact's energy
+/// `J_b - Gamma^T M^-1 Gamma` of the DWZ beam is 5.4e-5 kg m^2) through the
+/// DWZ scene's collision cluster either run with the contact's energy
 /// balance holding (quadrature energy + stored + dissipated = E0) or stop
 /// with an integration error that names the hub inertia: never a panic or a
 /// non-finite state. A prescribed hub with J_h = 0 driving the tip into the
@@ -776,9 +776,9 @@ fn i_hub_inertia_to_zero() {
     assert!(((work - gained) / work).abs() < 1e-6, "{work} vs {gained}");
 }
 
-/// (j) K = 1e12 N/m^1.5 (130 times the seed's) through the seed scene's
+/// (j) K = 1e12 N/m^1.5 (130 times DWZ's) through the DWZ scene's
 /// collision cluster: no step collapse (the Radau steps per contact and in
-/// all stay within 3 times those at the seed's K, and under 300 per
+/// all stay within 3 times those at DWZ's K, and under 300 per
 /// contact), and both balances hold: energy (quadrature + stored +
 /// dissipated = E0) and angular momentum (the change by quadrature = the
 /// contact's angular impulse about the axis).
@@ -922,7 +922,7 @@ fn s_point_x(spec: &RotatingSpec) -> f64 {
     spec.surface.as_ref().unwrap().point[0]
 }
 
-/// (l) Very fast spin: prescribed spin-ups of the seed beam (first-order
+/// (l) Very fast spin: prescribed spin-ups of the DWZ beam (first-order
 /// model, 6 modes, J_h = 0) to 10 and 50 times its first bending frequency
 /// omega_1 = 87.8 rad/s. While the hub accelerates, the work of the hub
 /// torque it needs (Simpson on `tau theta'`) equals the change of the

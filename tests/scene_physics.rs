@@ -1,5 +1,5 @@
 //! The scenes beyond the foundation against independent computations:
-//! seed 003's energy balance and restitution formula on the chain's P(1,1)
+//! WB00's energy balance and restitution formula on the chain's P(1,1)
 //! orbit, beam theory's static deflection for the SI cantilever, energy
 //! conservation with two-sided and simultaneous contacts.
 
@@ -12,7 +12,7 @@ use beamstop::{EventKind, Model, Scene, Simulation};
 use common::{impacts, scene as load};
 
 #[test]
-fn chain_settles_on_p11_and_satisfies_the_seed_energy_balance() {
+fn chain_settles_on_p11_and_satisfies_the_wb00_energy_balance() {
     let scene = load("wagg_bishop_chain");
     let mut sim = Simulation::new(Model::build(&scene).unwrap(), 0.0).unwrap();
     sim.advance_to(1600.0).unwrap();
@@ -38,7 +38,7 @@ fn chain_settles_on_p11_and_satisfies_the_seed_energy_balance() {
     assert!(((1.0 - residual / ke).sqrt() - 0.7).abs() < 1e-9);
 }
 
-/// `E(t) - E(0) = sum_j (FE_j - DE_j) - impact losses` (seed 003 eq. 7),
+/// `E(t) - E(0) = sum_j (FE_j - DE_j) - impact losses` (WB00 eq. 7),
 /// through impacts, chatter and sticking: the quadrature of the loads'
 /// work and the damping against the closed-form energy.
 #[test]

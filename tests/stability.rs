@@ -19,7 +19,7 @@ fn pinned() -> Scene {
     common::scene("pinned_beam")
 }
 
-/// With seed 003's energy accounting switched on.
+/// With WB00's energy accounting switched on.
 fn balanced(mut scene: Scene) -> Scene {
     scene.outputs.energy_balance = true;
     scene
@@ -39,7 +39,7 @@ fn modes(mut scene: Scene, n: usize) -> Scene {
     scene
 }
 
-/// The Figure 10 regime of seed 000: two impacts per forcing period.
+/// The Figure 10 regime of VSM12: two impacts per forcing period.
 fn figure10() -> Scene {
     with(
         pinned(),
@@ -393,7 +393,7 @@ fn si_steel_beam_and_micro_cantilever_magnitudes() {
     assert!(w.sim.state().stops[0].impacts > 10);
 }
 
-/// Seed 001's hard-impact cantilever (20 modes) with the stop stiffness
+/// RMTM's hard-impact cantilever (20 modes) with the stop stiffness
 /// `kappa` times the static stiffness `3 EI / L^3`.
 fn spring_stop(kappa: f64) -> Scene {
     let mut scene = common::scene("spring_stop_hard");
@@ -404,7 +404,7 @@ fn spring_stop(kappa: f64) -> Scene {
 
 #[test]
 fn compliant_stop_from_soft_to_1e12_times_the_structure() {
-    // Pass: kappa = 1e-2 .. 1e12 (c = 0) through 0.3 s of the seed 001
+    // Pass: kappa = 1e-2 .. 1e12 (c = 0) through 0.3 s of the RMTM
     // hard-impact scene with the energy accounted: every invariant holds,
     // and the search costs a bounded number of points per switch whatever
     // the stiffness (no step collapse: the contact phase is exact, its
@@ -471,7 +471,7 @@ fn compliant_huge_and_tiny_steps() {
 }
 
 /// The Hertz-stop cantilever (20 modes) with stiffness `k` N/m^1.5 and the
-/// seed's undamped law.
+/// DWZ's undamped law.
 fn hertz_stop(k: f64) -> Scene {
     let mut scene = common::scene("hertz_stop");
     scene.stops[0].law = beamstop::scene::StopLaw::Hertz(beamstop::contact::Hertz {

@@ -1,4 +1,5 @@
-//! Brent's root finder (zeroin), shared by the compiled peers.
+//! Brent's root finder (zeroin; BRE73 in docs/references.md), shared by
+//! the compiled peers.
 
 /// Brent's method (zeroin) on `[a, b]` with `fa`, `fb` of opposite signs.
 pub fn brent(mut g: impl FnMut(f64) -> f64, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {

@@ -3,10 +3,11 @@
 //! extension (dense output) of order 7, step by step.
 //!
 //! Sources:
-//! * E. Hairer, S. P. Norsett, G. Wanner, "Solving Ordinary Differential
-//!   Equations I: Nonstiff Problems", 2nd ed., Springer 1993, Sec. II.5
-//!   (the method, the (5,3) error estimate) and II.6 (dense output), and
-//!   Hairer's Fortran code DOP853 (http://www.unige.ch/~hairer/software.html);
+//! * HNW93 (docs/references.md): E. Hairer, S. P. Norsett, G. Wanner,
+//!   "Solving Ordinary Differential Equations I: Nonstiff Problems", 2nd
+//!   ed., Springer 1993, Sec. II.5 (the method, the (5,3) error estimate)
+//!   and II.6 (dense output), and Hairer's Fortran code DOP853
+//!   (http://www.unige.ch/~hairer/software.html);
 //! * scipy.integrate (`_ivp/dop853_coefficients.py`; `_ivp/rk.py`, classes
 //!   `RungeKutta`, `DOP853` and `Dop853DenseOutput`; `_ivp/common.py`,
 //!   `select_initial_step`), whose coefficients, step-size controller

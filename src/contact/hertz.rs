@@ -1,11 +1,11 @@
 //! The Hertz stop: a nonlinear spring that pushes and never pulls,
-//! `F = max(0, K p^1.5 + damping)` with `p` the penetration (seed 004
-//! eqs. 2-4: `F = K gamma^1.5 + C gamma'`), and the damping either the
-//! seed's linear `C p'` or a hysteretic one that vanishes with the
+//! `F = max(0, K p^1.5 + damping)` with `p` the penetration (DWZ
+//! eqs. 2-4: `F = K gamma^1.5 + C gamma'`), and the damping either
+//! DWZ's linear `C p'` or a hysteretic one that vanishes with the
 //! penetration and so keeps the force continuous at the onset:
-//! - Hunt & Crossley (1975), as calibrated by Marhefka & Orin (1999):
+//! - Hunt & Crossley (HC75), as calibrated by Marhefka & Orin (MO99):
 //!   `K p^1.5 (1 + 3 (1 - e) / 2 * p' / v0)`;
-//! - Lankarani & Nikravesh (1990): `K p^1.5 (1 + 3 (1 - e^2) / 4 * p' / v0)`,
+//! - Lankarani & Nikravesh (LN90): `K p^1.5 (1 + 3 (1 - e^2) / 4 * p' / v0)`,
 //!
 //! with `v0` the approach speed at the onset and `e` the restitution they
 //! aim at. The force is not linear in the state, so its contact phases are
@@ -32,7 +32,7 @@ pub struct Hertz {
     /// `K` of `K p^1.5` (N/m^1.5 in SI scenes).
     #[serde(rename = "K")]
     pub stiffness: f64,
-    /// `C` of the seed's linear damping `C p'` (N s/m).
+    /// `C` of DWZ's linear damping `C p'` (N s/m).
     #[serde(rename = "C", default)]
     pub damping_coefficient: f64,
     #[serde(default, skip_serializing_if = "HertzDamping::is_linear")]
@@ -50,7 +50,7 @@ fn one() -> f64 {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum HertzDamping {
-    /// `C p'` (seed 004): the force jumps by `C v0` at the onset.
+    /// `C p'` (DWZ): the force jumps by `C v0` at the onset.
     #[default]
     Linear,
     /// `K p^1.5 * 3 (1 - e) / 2 * p' / v0`.

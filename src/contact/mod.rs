@@ -99,7 +99,7 @@ impl Contact {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PhaseTerm {
     None,
-    /// `w . q = target` held by a reaction (seed 000 eqs. 29-33).
+    /// `w . q = target` held by a reaction (VSM12 eqs. 29-33).
     Constraint,
     /// `-side w (k p + c p')`: `K += k w w^T`, `D += c w w^T`, `f += k target w`.
     SpringDashpot { k: f64, c: f64 },
@@ -301,7 +301,7 @@ pub trait ContactLaw: Send + Sync + std::fmt::Debug {
         let _ = (t, previous_impact, speed, negligible);
         None
     }
-    /// Mode transfer for a tip spring (seed 001's MTM and RMTM): the
+    /// Mode transfer for a tip spring (RMTM's MTM and RMTM methods): the
     /// spring's stiffness, the method and the damping of the contact modes.
     fn mode_transfer(&self) -> Option<(f64, ContactMethod, TransferDamping)> {
         None

@@ -1,5 +1,5 @@
-//! The modal coefficient-of-restitution impact rule (seed 000 eqs. 25-28;
-//! seed 003 eq. 6), for one or several simultaneous contact points.
+//! The modal coefficient-of-restitution impact rule (VSM12 eqs. 25-28;
+//! WB00 eq. 6), for one or several simultaneous contact points.
 //!
 //! An impulse `P_i` at each point changes the modal velocities by
 //! `qd+ = qd- + sum_i w_i P_i` (eq. 25) so that the contact velocity
@@ -16,8 +16,8 @@ use crate::units::Unit;
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::Jet;
 
-/// The rigid stop of seed 000: impacts by the restitution rule, chatter
-/// ended by the threshold `eps` (section 2.2), then sticking.
+/// The rigid stop of VSM12: impacts by the restitution rule, chatter
+/// ended by the threshold `eps` (VSM12 sec. 2.2), then sticking.
 /// Scene schema: `{"type": "restitution", "R": ..., "eps": ...}`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -88,7 +88,7 @@ const OUTPUTS: &[LawOutput] = &[
     LawOutput {
         what: StopOutput::Reaction,
         suffix: "lambda",
-        description: "Reaction of stop '{stop}' while sticking (seed 000 eq. 33; <= 0 for a stop on the +w side), else 0",
+        description: "Reaction of stop '{stop}' while sticking (VSM12 eq. 33; <= 0 for a stop on the +w side), else 0",
         unit: Unit::Newton,
         kind: OutputType::Real,
         discrete: false,
@@ -217,7 +217,7 @@ pub fn apply_impact(qd: &mut DVector<f64>, rows: &[ImpactRow], impulses: &mut Ve
 }
 
 /// Kinetic energy lost by a single-point impact:
-/// `(1 - R^2) (w . qd-)^2 / (2 w . w)` (Kelvin's impact loss with the modal restitution rule, seed 000 eq. 28).
+/// `(1 - R^2) (w . qd-)^2 / (2 w . w)` (Kelvin's impact loss with the modal restitution rule, VSM12 eq. 28).
 pub fn energy_loss(w: &DVector<f64>, qd_before: &DVector<f64>, restitution: f64) -> f64 {
     let v = w.dot(qd_before);
     (1.0 - restitution * restitution) * v * v / (2.0 * w.dot(w))

@@ -1,6 +1,6 @@
 //! The compliant stop: a linear spring and dashpot that push and never
 //! pull, `F = max(0, k p + c p')` with `p` the penetration (the clamped
-//! Kelvin-Voigt form; seed 001 models the stop as the spring alone, c = 0).
+//! Kelvin-Voigt form; RMTM models the stop as the spring alone, c = 0).
 //!
 //! While pressed the stop adds `k w w^T` to the stiffness and `c w w^T` to
 //! the damping of the modal equations, and the constant `k target w` to the
@@ -26,7 +26,7 @@ pub struct SpringDashpot {
     pub k: f64,
     /// Damping (N s/m).
     pub c: f64,
-    /// How contact phases are represented (seed 001's three methods).
+    /// How contact phases are represented (RMTM's three methods).
     #[serde(default, skip_serializing_if = "ContactMethod::is_fim")]
     pub method: ContactMethod,
     /// With mode transfer: how the contact modes are damped.
@@ -34,7 +34,7 @@ pub struct SpringDashpot {
     pub transfer_damping: TransferDamping,
 }
 
-/// Seed 001's three ways of solving a contact phase of a tip spring stop.
+/// RMTM's three ways of solving a contact phase of a tip spring stop.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum ContactMethod {
@@ -60,7 +60,7 @@ impl ContactMethod {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum TransferDamping {
-    /// The structure's modal damping ratio on every contact mode (seed 001:
+    /// The structure's modal damping ratio on every contact mode (RMTM:
     /// "adding damping" in each basis).
     #[default]
     Modal,

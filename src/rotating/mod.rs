@@ -1,5 +1,5 @@
 //! The simulation engine of a flexible beam on a rotating hub whose tip may
-//! strike a fixed plane (seed: Duan, Wang & Zhang, "Impact dynamics of a
+//! strike a fixed plane (DWZ: Duan, Wang & Zhang, "Impact dynamics of a
 //! flexible beam with rotation": Hertz contact `F = K gamma^1.5 + C gamma'`,
 //! eqs. 2-4; the equations of motion in [`crate::structure::rotating`]).
 //!

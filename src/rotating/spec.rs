@@ -145,7 +145,7 @@ pub struct SolverSpec {
     /// Integration steps allowed within one call to `advance_to`: a bound
     /// on the time one call takes (Radau IIA: 50 to 130 us per step at 6
     /// modes, so about 1.3 s at most; with a surface the step is capped at
-    /// the shortest modal period, so the seed scene covers at most about
+    /// the shortest modal period, so the DWZ scene covers at most about
     /// 8 s per call).
     #[serde(default = "default_max_steps")]
     pub max_steps_per_step: u64,
@@ -404,7 +404,7 @@ impl RotatingSpec {
 mod tests {
     use super::*;
 
-    const SEED: &str = r#"{ "name": "t", "beam": { "length": 1.0, "mass_per_length": 0.86884, "bending_stiffness": 541.26 },
+    const DWZ_SCENE: &str = r#"{ "name": "t", "beam": { "length": 1.0, "mass_per_length": 0.86884, "bending_stiffness": 541.26 },
         "n_modes": 6, "hub_inertia": 0.05,
         "surface": { "normal": [0, -1], "point": [1, 0],
                      "law": { "type": "hertz", "K": 7.6e9, "damping": "lankarani_nikravesh", "e": 0.8 } },
@@ -412,25 +412,25 @@ mod tests {
 
     #[test]
     fn parses_and_refuses_with_named_fields() {
-        let s = RotatingSpec::from_json(SEED).unwrap();
+        let s = RotatingSpec::from_json(DWZ_SCENE).unwrap();
         assert_eq!(s.hub, HubDrive::Torque);
         assert_eq!(s.order, OrderSpec::First);
         assert!(matches!(&s.surface.as_ref().unwrap().law, Law::Hertz(h) if h.damping == crate::contact::HertzDamping::LankaraniNikravesh));
-        let e = RotatingSpec::from_json(&SEED.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0.0")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0.0")).unwrap_err();
         assert!(e.contains("hub_inertia = 0.0") && e.contains("(0, 289613333333.3333]") && e.contains("near-singular"), "{e}");
-        let e = RotatingSpec::from_json(&SEED.replace("\"K\": 7.6e9", "\"K\": -1")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"K\": 7.6e9", "\"K\": -1")).unwrap_err();
         assert!(e.contains("surface.law.K = -1.0") && e.contains("(0, 10000000000000000]"), "{e}");
-        let e = RotatingSpec::from_json(&SEED.replace("\"e\": 0.8", "\"e\": 1.5")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"e\": 0.8", "\"e\": 1.5")).unwrap_err();
         assert!(e.contains("surface.law.e = 1.5") && e.contains("[0, 1]"), "{e}");
-        let e = RotatingSpec::from_json(&SEED.replace("n_modes\": 6", "n_modes\": 0")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("n_modes\": 6", "n_modes\": 0")).unwrap_err();
         assert!(e.contains("n_modes = 0") && e.contains("[1, 40]"), "{e}");
-        let e = RotatingSpec::from_json(&SEED.replace("\"theta_dot\"", "\"theta_dott\"")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"theta_dot\"", "\"theta_dott\"")).unwrap_err();
         assert!(e.contains("unknown field `theta_dott`"), "{e}");
-        let e = RotatingSpec::from_json(&SEED.replace("\"type\": \"hertz\"", "\"type\": \"hertz\", \"Q\": 1")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"type\": \"hertz\"", "\"type\": \"hertz\", \"Q\": 1")).unwrap_err();
         assert!(e.contains("unknown field `Q`"), "{e}");
-        let e = RotatingSpec::from_json(&SEED.replace("\"mass_per_length\": 0.86884,", "\"rho\": 2700,")).unwrap_err();
+        let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"mass_per_length\": 0.86884,", "\"rho\": 2700,")).unwrap_err();
         assert!(e.contains("not a mix"), "{e}");
-        let spin = SEED.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0, \"hub\": {\"prescribed\": {\"type\": \"spin_up\", \"omega_s\": 6, \"T\": 15}}")
+        let spin = DWZ_SCENE.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0, \"hub\": {\"prescribed\": {\"type\": \"spin_up\", \"omega_s\": 6, \"T\": 15}}")
             .replace("\"theta_dot\": 2.0", "\"theta\": 0.1");
         let s = RotatingSpec::from_json(&spin).unwrap();
         assert_eq!(s.hub, HubDrive::Prescribed(Profile::SpinUp { omega_s: 6.0, duration: 15.0 }));

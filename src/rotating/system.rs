@@ -10,7 +10,7 @@
 //! (nothing depends on them, so Newton solves them exactly once the rest
 //! has converged) and they have no error control of their own.
 //!
-//! The contact force `F = K gamma^1.5 + damping` (seed eqs. 2-4) acts while
+//! The contact force `F = K gamma^1.5 + damping` (DWZ eqs. 2-4) acts while
 //! pressed and `gamma = -gap > 0` and the raw force is positive, along the
 //! plane's normal: `Q_c = F d gap / dz`.
 

@@ -1,5 +1,5 @@
 //! What the stops do to the structure and where the energy goes: the
-//! energy balance of seed 003, the dissipation in the stops, the stops'
+//! energy balance of WB00, the dissipation in the stops, the stops'
 //! impulses (exact over each segment), forces and reactions.
 
 use nalgebra::DVector;

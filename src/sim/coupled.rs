@@ -24,7 +24,7 @@ pub(super) struct CoupledPhase {
     pub(super) loads: Arc<PhaseLoads>,
     /// Each channel's function in the phase's coordinates.
     pub(super) events: Vec<ProjectedFunctional>,
-    /// The reaction (seed eq. 33) of each held stop.
+    /// The reaction (VSM12 eq. 33) of each held stop.
     pub(super) reactions: Vec<Option<Functional>>,
 }
 

@@ -149,7 +149,7 @@ impl Simulation {
     }
 
     /// The impact: impacting stops with their restitution, newly pressed
-    /// and still held stops with R = 0 (seed 000 section 2.2); each
+    /// and still held stops with R = 0 (VSM12 sec. 2.2); each
     /// impacting stop's contact point is put on the stop.
     fn apply_impacts(&mut self, t: f64, st: &mut ModalState, work: &mut EventWork) {
         let n_stops = self.model.stops.len();
@@ -194,7 +194,7 @@ impl Simulation {
         }
         for &(i, speed) in impacts.iter() {
             let g = &self.model.stops[i].geometry;
-            // Put the contact point exactly on the stop (seed 000 Fig. 3b).
+            // Put the contact point exactly on the stop (VSM12 Fig. 3b).
             let miss = g.target() - g.w.dot(&st.q);
             st.q.axpy(miss / g.w.dot(&g.w), &g.w, 1.0);
             let lost = energy_loss(&g.w, before, restitution[i]);
@@ -208,8 +208,8 @@ impl Simulation {
 
     /// Sets every stop's new contact state, with the held stops' counters.
     /// After the last impact of a chatter sequence the contact velocity is
-    /// zero: the beam sticks if the loads press it on (the reaction of seed
-    /// 000 eq. 32 of the right sign), else it leaves. Zero-velocity
+    /// zero: the beam sticks if the loads press it on (the reaction of
+    /// VSM12 eq. 32 of the right sign), else it leaves. Zero-velocity
     /// contacts found pressed stick.
     fn settle_holds(&mut self, t: f64, st: &ModalState, work: &mut EventWork) {
         let n_stops = self.model.stops.len();
@@ -252,7 +252,7 @@ impl Simulation {
     /// contact state), moving along them.
     fn project_on_held(&mut self, st: &mut ModalState, contact: &[Contact]) -> Result<(), SimError> {
         if contact.iter().any(|c| *c == Contact::Held) {
-            // Exactly on the held stops, moving along them (seed 000 eqs. 29-31:
+            // Exactly on the held stops, moving along them (VSM12 eqs. 29-31:
             // project at entry so no drift accumulates). A phase entered
             // before has its system at hand.
             let system = match self.phase_memo.iter().find(|m| m.holds_for(&self.state.stops)) {

@@ -8,7 +8,7 @@
 //!
 //! This file holds the run itself ([`Simulation`]: its making, its
 //! accessors, the advance and the changes of inputs and model); the rest
-//! by job: `state.rs` (the state), `record.rs` (events), `error.rs`,
+//! by job: `state.rs` (the state), `record.rs` (events),
 //! `phases.rs` and `coupled.rs` (the current phase and its segment),
 //! `search.rs` (the event search), `events.rs` (the event handling),
 //! `accounting.rs` (impulses, forces, energy), `transfer.rs` (mode

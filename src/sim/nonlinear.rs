@@ -4,7 +4,7 @@
 //!
 //! The structure stays linear: `q'' + 2 a q' + omega^2 q = f(t) - sum_i
 //! side_i w_i F_i` with each engaged stop's force `F_i(p_i, p_i')` from its
-//! law (Hertz: seed 004 eqs. 2-4). The integrated state is `[q; q'; J; E]`:
+//! law (Hertz: DWZ eqs. 2-4). The integrated state is `[q; q'; J; E]`:
 //! besides the modal state it carries, per engaged stop, the impulse `J_i =
 //! int F_i dt` and the energy its damping dissipates `E_i = int (F_i -
 //! F_spring,i) p_i' dt`, so both come out of the integration to its accuracy.

@@ -60,9 +60,9 @@ pub struct SimState {
     pub accounted: f64,
     /// The state at `time`.
     pub current: ModalState,
-    /// Seed 003's energy accounting, when the model asks for it.
+    /// WB00's energy accounting, when the model asks for it.
     pub balance: Option<EnergyBalance>,
-    /// With mode transfer (seed 001's MTM, RMTM): the shape the current
+    /// With mode transfer (RMTM's MTM and RMTM methods): the shape the current
     /// motion is an increment over, in both bases; `current` and `anchor`
     /// are then in the basis of the phase (spring modes while the transfer
     /// stop is pressed).
@@ -78,9 +78,9 @@ pub struct Frozen {
 }
 
 /// The work of the loads on each mode `FE_j = int qd_j f_j dt`, the energy
-/// its damping dissipates `DE_j = int 2 zeta_j omega_j qd_j^2 dt` (seed 003
+/// its damping dissipates `DE_j = int 2 zeta_j omega_j qd_j^2 dt` (WB00
 /// eq. 8) and the energy lost at impacts, all from the start, so that
-/// `E(t) - E(0) = sum_j (FE_j - DE_j) - impacts` (seed 003 eq. 7).
+/// `E(t) - E(0) = sum_j (FE_j - DE_j) - impacts` (WB00 eq. 7).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnergyBalance {
     pub forcing: Vec<f64>,

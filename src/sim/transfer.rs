@@ -1,4 +1,4 @@
-//! Mode transfer (seed 001, docs/mode_transfer.md): the basis the motion
+//! Mode transfer (RMTM, docs/mode_transfer.md): the basis the motion
 //! is in (the structure's modes, or the tip-spring modes while the
 //! transfer stop is pressed), the switch between them, and the motion read
 //! back in the structure's own modes.
@@ -132,7 +132,7 @@ impl Simulation {
         Ok(())
     }
 
-    /// Mode transfer (seed 001): entering or leaving contact changes the
+    /// Mode transfer (RMTM): entering or leaving contact changes the
     /// basis; MTM projects both fields on the new modes, RMTM freezes the
     /// displacement and projects the velocity (docs/mode_transfer.md).
     /// Whether the basis changed; `st` is then in the new one.
@@ -176,7 +176,7 @@ impl Simulation {
 }
 
 /// The free dynamics of the current basis: the structure's modes, or with
-/// mode transfer in contact the tip-spring modes (seed 001), each with the
+/// mode transfer in contact the tip-spring modes (RMTM), each with the
 /// constant load its frozen shape and the spring's preload exert
 /// (docs/mode_transfer.md: `-omega^2 r` apart, `k target Phi(L) -
 /// omega~^2 s` in contact, `r = c + T^T d`, `s = T c + d`).

@@ -1,7 +1,7 @@
 //! Event functions: scalars linear in the modal state and the load,
 //! `h(t) = offset + a . q + b . qd + c . f(t)`.
 //!
-//! Gaps (`d - w . q`) and contact reactions (seed 000 eq. 33) both have this
+//! Gaps (`d - w . q`) and contact reactions (VSM12 eq. 33) both have this
 //! form, so one event locator serves every switch of every phase.
 
 use nalgebra::DVector;

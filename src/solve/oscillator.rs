@@ -1,5 +1,5 @@
 //! Exact solution of one damped modal oscillator
-//! `x'' + 2 zeta omega x' + omega^2 x = f(t)` (seed 000 eq. 13, seed 003 eq. 4).
+//! `x'' + 2 zeta omega x' + omega^2 x = f(t)` (VSM12 eq. 13, WB00 eq. 4).
 //!
 //! Every formula here is free of catastrophic cancellation, whatever the
 //! damping (zero, critical, strongly over-critical) and however close the

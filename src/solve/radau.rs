@@ -1,11 +1,12 @@
 //! L-stable implicit integration: Radau IIA, 3 stages, order 5.
 //!
-//! Source: Hairer & Wanner, *Solving Ordinary Differential Equations II*
-//! (2nd ed. 1996), sec. IV.8, and their Fortran code RADAU5: coefficients,
-//! the embedded error estimate filtered by `(I - h gamma0 J)^-1`, the step
-//! rule with Gustafsson's predictive controller, the Newton contraction
-//! estimate `theta`, starting values and dense output from the collocation
-//! polynomial of the last step, transformed tolerances `0.1 rtol^(2/3)`.
+//! Source: HW96 (Hairer & Wanner, *Solving Ordinary Differential Equations
+//! II*, 2nd ed. 1996; docs/references.md), sec. IV.8, and their Fortran
+//! code RADAU5: coefficients, the embedded error estimate filtered by
+//! `(I - h gamma0 J)^-1`, the step rule with Gustafsson's predictive
+//! controller, the Newton contraction estimate `theta`, starting values
+//! and dense output from the collocation polynomial of the last step,
+//! transformed tolerances `0.1 rtol^(2/3)`.
 //!
 //! Newton's linear systems `(I - h A (x) J) dZ = R` are solved as in
 //! RADAU5 (sec. IV.8, (8.15)-(8.18)): with `W = (T^-1 (x) I) Z` they split

@@ -1,5 +1,5 @@
 //! Euler-Bernoulli beams: frequencies `omega_j = beta_j^2 sqrt(EI / (mu L^4))`
-//! and shapes normalised so that `int_0^L mu W_j^2 dx = 1` (seed 000 eqs.
+//! and shapes normalised so that `int_0^L mu W_j^2 dx = 1` (VSM12 eqs.
 //! 10-12). Positions `x` run along the beam, `0 <= x <= L`.
 //!
 //! Shapes are written with decaying exponentials only (as Goncalves,
@@ -144,7 +144,7 @@ impl DimensionlessMode {
     }
 }
 
-/// A uniform beam. In the seeds' scaled units `L = mu = EI = 1`.
+/// A uniform beam. In scaled units (VSM12's) `L = mu = EI = 1`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Beam {
     pub support: Support,
@@ -196,7 +196,7 @@ impl Beam {
     }
 
     /// `int_0^L W_j dx`: the modal participation of a uniform load per unit
-    /// length (seed 000 eq. 13, `alpha_j`).
+    /// length (VSM12 eq. 13, `alpha_j`).
     pub fn shape_integral(&self, j: usize) -> f64 {
         self.amplitude() * self.length * self.integrals[j - 1]
     }

@@ -1,4 +1,4 @@
-//! The N-mass chain of seed 003 (Wagg & Bishop 2000, Fig. 1): equal masses
+//! The N-mass chain of WB00 (Wagg & Bishop 2000, Fig. 1): equal masses
 //! m, springs k and dampers c from the ground to mass 1 and between
 //! neighbours, mass N free on one side (where the stop acts).
 //!
@@ -60,7 +60,7 @@ impl Chain {
         (self.lambda[j - 1] * self.k / self.m).sqrt()
     }
 
-    /// `zeta_j = (c / 2) sqrt(lambda_j / (k m))` (seed 003 eq. 4).
+    /// `zeta_j = (c / 2) sqrt(lambda_j / (k m))` (WB00 eq. 4).
     pub fn zeta(&self, j: usize) -> f64 {
         0.5 * self.c * (self.lambda[j - 1] / (self.k * self.m)).sqrt()
     }

@@ -1,7 +1,7 @@
 //! A flexible clamped-free beam on a rotating hub, in the plane of rotation
-//! (seed: Duan, Wang, Zhang, "Impact dynamics of a flexible beam with
-//! rotation"; geometric stiffening after Kane, Ryan & Banerjee 1987,
-//! J. Guidance 10(2), "KRB" below). The seed omits its matrices ("after
+//! (DWZ: Duan, Wang & Zhang, "Impact dynamics of a flexible beam with
+//! rotation"; geometric stiffening after Kane, Ryan & Banerjee 1987, KRB87,
+//! "KRB" below; keys in docs/references.md). DWZ omits its matrices ("after
 //! complex derivation"); they are derived here from its kinematics.
 //!
 //! **Kinematics.** The axis O is fixed; the hub angle `theta` turns the
@@ -10,15 +10,15 @@
 //! (`theta = 0`: along +X, horizontal); gravity `(0, -g)` acts in the plane.
 //! Deflection `v(x) = phi(x)^T B` with `phi_i(x) = W_i(x / L)` the
 //! clamped-free shapes of unit mean square, so `B` is in metres.
-//! Inextensibility (seed Eq. 1) shortens the beam by
+//! Inextensibility (DWZ eq. 1) shortens the beam by
 //! `u(x) = -1/2 int_0^x v'^2 = -1/2 B^T e(x) B`, `e_ij(x) = int_0^x phi_i' phi_j'`.
-//! A point is at `r = A(theta) [R + x + u, v]`, with velocity (seed Eq. 6)
+//! A point is at `r = A(theta) [R + x + u, v]`, with velocity (DWZ eq. 6)
 //! `r' = (u' - v theta') i' + ((R + x + u) theta' + v') j'`.
 //! Coordinates `z = [theta, B_1 .. B_N]`.
 //!
 //! **Energies.** `T = 1/2 J_h theta'^2 + 1/2 int mu |r'|^2`,
 //! `V = 1/2 int EI v''^2 + int mu g [(R + x + u) sin theta + v cos theta]`
-//! (seed Eqs. 9, 10). With `B = O(eps)`, `u = O(eps^2)`:
+//! (DWZ eqs. 9, 10). With `B = O(eps)`, `u = O(eps^2)`:
 //!
 //! * [`Order::First`] keeps the Lagrangian to `O(eps^2)`: in `|r'|^2` the terms
 //!   `(R+x)^2 theta'^2 + 2 (R+x) theta' v' + v'^2 + v^2 theta'^2 + 2 (R+x) u theta'^2`
@@ -56,7 +56,7 @@
 //! `C_L = e(L) = c^ / L`, `w = W(1)`, `J_b = mu [(R+L)^3 - R^3] / 3`,
 //! `S_1 = mu (R L + L^2 / 2)`.
 //!
-//! **Tip and contact** (seed Eqs. 2-4 and its impact potential): the tip is at
+//! **Tip and contact** (DWZ eqs. 2-4 and its impact potential): the tip is at
 //! `A(theta) [R + L + u_L, v_L]`, `u_L = -1/2 B^T C_L B` (0 at zeroth order),
 //! `v_L = w^T B`. Against a fixed plane `n . (r - p0) = 0` (unit normal `n` to
 //! the free side) the gap is `g_n = n . (r_tip - p0)` and a normal force
@@ -465,7 +465,7 @@ mod tests {
     use super::*;
 
     fn params(order: Order, n: usize) -> RotatingBeamParams {
-        // The seed's beam: J_b = mu L^3 / 3 = 0.28961 with mu = 0.86884 gives L = 1.000 m.
+        // DWZ's beam: J_b = mu L^3 / 3 = 0.28961 with mu = 0.86884 gives L = 1.000 m.
         RotatingBeamParams {
             length: 1.0,
             mass_per_length: 0.86884,
@@ -538,7 +538,7 @@ mod tests {
     }
 
     #[test]
-    fn seed_beam_numbers() {
+    fn dwz_beam_numbers() {
         let beam = RotatingBeam::new(params(Order::First, 6)).unwrap();
         assert!((beam.j_b - 0.28961).abs() < 5e-6, "J_b {}", beam.j_b);
         let want = [87.8, 550.0, 1539.9, 3017.6, 4988.4, 7451.7];

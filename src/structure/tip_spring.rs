@@ -1,6 +1,6 @@
 //! A uniform Euler-Bernoulli cantilever (clamped at `x = 0`, free at
 //! `x = L`) with a linear spring `k` from its tip to ground: the basis of
-//! the contact phase in the mode transfer methods (MTM, RMTM) of seed 001,
+//! the contact phase in the mode transfer methods (MTM, and RMTM's own relative one) of the RMTM paper,
 //! where the stop is that spring. See `docs/mode_transfer.md`.
 //!
 //! Dimensionless spring `kappa = k L^3 / EI`. With `xi = x / L` the mode

@@ -33,7 +33,7 @@ from fmpy.fmi2 import (
 ROOT = Path(__file__).resolve().parents[2]
 FMU_DIR = ROOT / "target" / "fmu"
 FMU_PATH = FMU_DIR / "PinnedBeamStop.fmu"
-SO_PATH = ROOT / "target" / "release" / "libbeamstop.so"
+SO_PATH = ROOT / "target" / "release" / "libbeamstop_fmu.so"
 HEADER_PATH = ROOT / "include" / "beamstop_fmi2.h"
 SCENE_PATH = ROOT / "scenes" / "pinned_beam.json"
 C_TESTS = ROOT / "tests" / "c"
@@ -53,7 +53,7 @@ EXPECTED_VARIABLES = {
     "energy",
 }
 
-# Closed forms of the pinned-pinned beam (seed units).
+# Closed forms of the pinned-pinned beam (VSM12's scaled units).
 N_MODES = 4
 
 

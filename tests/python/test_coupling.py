@@ -1,4 +1,4 @@
-"""The controller-coupling example (tools/coupling, scripts/coupling),
+"""The controller-coupling example (python/beamstop_tools/coupling, scripts/coupling),
 shortened: a PD controller slews RotatingBeamImpact.fmu until the tip rests
 against the surface, through fmpy and through OSP libcosim with
 PDController.fmu (examples/coupling/pd_controller, built here with cargo).
@@ -18,18 +18,14 @@ from __future__ import annotations
 import dataclasses
 import random
 import shutil
-import sys
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import FMU_DIR, ROOT
-
-sys.path.insert(0, str(ROOT))
-from tools.coupling import controller, runs, system as osp  # noqa: E402
-from tools.coupling.pd_slew import analyse, beam_data, compare, plant_frequencies, static_rest  # noqa: E402
+from beamstop_tools.coupling import controller, runs, system as osp
+from beamstop_tools.coupling.pd_slew import analyse, beam_data, compare, plant_frequencies, static_rest
+from conftest import FMU_DIR
 
 BEAM_FMU = FMU_DIR / "RotatingBeamImpact.fmu"
 T_END = 1.3      # s: the slew, impacts and chatter (the last onset near 0.95 s), then pressed
@@ -67,6 +63,20 @@ def test_controller_fmu_passes_fmpy_validation(controller_fmu):
     from fmpy.validation import validate_fmu
 
     assert validate_fmu(str(controller_fmu)) == []
+
+
+def test_controller_fmu_carries_only_its_kind(controller_fmu):
+    """Each FMU carries only what its scene needs: the controller's binary
+    links beamstop's FMI layer but none of beamstop's own kinds (no contact
+    laws, no modal or rotating simulation)."""
+    with zipfile.ZipFile(controller_fmu) as z:
+        binary = z.read("binaries/linux64/PDController.so")
+    with zipfile.ZipFile(BEAM_FMU) as z:
+        beam_binary = z.read("binaries/linux64/RotatingBeamImpact.so")
+    for marker in (b"lankarani_nikravesh", b"RotatingBeam"):
+        assert marker in beam_binary, marker
+        assert marker not in binary, f"PDController.so carries {marker!r}"
+    assert len(binary) < len(beam_binary) / 3, (len(binary), len(beam_binary))
 
 
 def test_controller_fmu_and_its_python_mirror_agree_bit_for_bit(controller_fmu, tmp_path):

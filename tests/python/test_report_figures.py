@@ -7,22 +7,22 @@ import math
 import pathlib
 import shutil
 
-from tools.report import rotating_plots, scaling
+from beamstop_tools.report import rotating_plots, scaling
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def test_rotating_figures_from_the_committed_csvs(tmp_path):
-    for name in ("seed_history.csv", "modes.csv", "spin_up.csv"):
+    for name in ("dwz_history.csv", "modes.csv", "spin_up.csv"):
         shutil.copy(ROOT / "report" / "rotating" / name, tmp_path / name)
     figures = rotating_plots.main(["--dir", str(tmp_path)])
-    for png in ("seed_history.png", "modes.png", "spin_up.png"):
+    for png in ("dwz_history.png", "modes.png", "spin_up.png"):
         assert (tmp_path / png).stat().st_size > 10_000, png
     # The numbers the figures quote, against the CSVs read here independently.
-    with open(tmp_path / "seed_history.csv") as f:
+    with open(tmp_path / "dwz_history.csv") as f:
         force = [float(r["force"]) for r in csv.DictReader(f)]
     onsets = sum(1 for a, b in zip(force, force[1:]) if a <= 0 < b)
-    assert figures["seed_history"]["contacts"] == onsets == 12  # as summary.md states
+    assert figures["dwz_history"]["contacts"] == onsets == 12  # as summary.md states
     with open(tmp_path / "modes.csv") as f:
         rows = [(int(r["modes"]), float(r["peak_force"])) for r in csv.DictReader(f)]
     ref = rows[-1][1]

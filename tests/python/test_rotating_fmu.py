@@ -1,4 +1,4 @@
-"""The rotating hub beam FMUs (seed 004: RotatingBeamImpact.fmu, the seed's
+"""The rotating hub beam FMUs (DWZ: RotatingBeamImpact.fmu, the paper's
 aluminium beam striking a plane with Hertz contact; SpinUpBeam.fmu, the
 Kane-Ryan-Banerjee spin-up) stepped through fmpy, checked against
 conservation laws the FMU does not impose itself:

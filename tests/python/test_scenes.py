@@ -63,7 +63,7 @@ EXPECTED["HertzStop"] = {
 EXPECTED["WaggBishopCantilever4"] = (EXPECTED["WaggBishopCantilever1"] - modal(1, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")) | modal(
     4, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")
 
-# The rotating hub beam (seed 004): the hub, the tip, the root moment, and
+# The rotating hub beam (DWZ): the hub, the tip, the root moment, and
 # the surface's outputs only where the scene has a surface; the spin-up's hub
 # motion is prescribed, so it has no torque input but the torque it needs.
 ROTATING_OUTPUTS = {"theta", "theta_dot", "tip.w", "tip.x", "tip.y", "root.M", "energy"}

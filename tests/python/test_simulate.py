@@ -249,7 +249,7 @@ def test_free_flight_matches_ode_with_damping_load_and_point_force(make_instance
 
 def test_sticking_phase_matches_constrained_ode(make_instance):
     """Default scene: stuck from t = 0 until the reaction
-    lambda = -W.(f - C qd - K q)/(W.W) changes sign (seed eq. 33)."""
+    lambda = -W.(f - C qd - K q)/(W.W) changes sign (VSM12 eq. 33)."""
     inst = make_instance(logging_on=True)
     inst.slave.setDebugLogging(True, ["logEvents"])
     inst.initialize(stop_time=4.0)

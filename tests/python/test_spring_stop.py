@@ -1,22 +1,19 @@
-"""The spring-stop FMUs (seed 001's base-excited cantilever) against an
+"""The spring-stop FMUs (the RMTM paper's base-excited cantilever) against an
 independent numerical integration of the same modal equations
-(`tools/report/springstop_reference.py`: its own mode shapes, scipy's DOP853
+(`python/beamstop_tools/report/springstop_reference.py`: its own mode shapes, scipy's DOP853
 at rtol 1e-13 with located switches): the exact force-integration route
 agrees to 1e-9 of the gap over 0.5 s from rest, contact for contact."""
 
 import csv
 import json
 import subprocess
-import sys
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
+from beamstop_tools.report.springstop_reference import simulate
 from conftest import FMU_DIR, ROOT, native_beamstop
-
-sys.path.insert(0, str(ROOT))
-from tools.report.springstop_reference import simulate  # noqa: E402
 
 T_END, DT, GAP = 0.5, 1e-4, 1e-3
 

@@ -1,4 +1,4 @@
-"""Tests of the independent spring-stop reference (tools/report/springstop_reference.py).
+"""Tests of the independent spring-stop reference (python/beamstop_tools/report/springstop_reference.py).
 
 These check the reference itself, not beamstop: no FMU, no native code.
 The modal data the checks use (beta_j, omega_j, W_j(L), int W_j) are computed
@@ -7,10 +7,8 @@ taken from the module under test.
 """
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
-import sys
 from pathlib import Path
 
 import mpmath as mp
@@ -18,14 +16,10 @@ import numpy as np
 import pytest
 from scipy.integrate import cumulative_simpson
 
+from beamstop_tools.report import springstop_reference as ref
+
 ROOT = Path(__file__).resolve().parents[2]
 SCENES = ROOT / "scenes"
-
-_spec = importlib.util.spec_from_file_location(
-    "springstop_reference", ROOT / "tools" / "report" / "springstop_reference.py")
-ref = importlib.util.module_from_spec(_spec)
-sys.modules.setdefault(_spec.name, ref)  # dataclasses look their module up there
-_spec.loader.exec_module(ref)
 
 
 def scene(name: str) -> dict:

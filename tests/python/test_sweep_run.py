@@ -32,8 +32,7 @@ BASE = ["--set", "F=72", "--set", "omega=0.7*pi**2", "--set", "eps=1e-3",
 
 
 def sweep(*args, check=True):
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    run = subprocess.run([sys.executable, "-m", "tools.sweep", *map(str, args)], cwd=ROOT, env=env,
+    run = subprocess.run([sys.executable, "-m", "beamstop_tools.sweep", *map(str, args)], cwd=ROOT,
                          capture_output=True, text=True, timeout=300)
     if check:
         assert run.returncode == 0, run.stderr
@@ -45,7 +44,7 @@ def rows_of(path):
 
 
 class Plain:
-    """The FMU through fmpy, nothing of tools.sweep."""
+    """The FMU through fmpy, nothing of beamstop_tools.sweep."""
 
     def __init__(self):
         md = read_model_description(str(PINNED))
@@ -134,7 +133,7 @@ def test_each_point_matches_a_plain_fmpy_loop(gap_sweep):
             assert r["sticking"]
         assert abs(r["stuck_fraction"] - stuck.mean()) < 3.0 / fine + 1e-12
     plain.s.terminate()
-    # the gaps cover sticking and period-1 double impacts (seed 000 Figure 9)
+    # the gaps cover sticking and period-1 double impacts (VSM12 Figure 9)
     assert rows[(None, 0)]["sticking"] and not rows[(None, 5)]["sticking"]
     assert rows[(None, 4)]["period"] == 1 and rows[(None, 4)]["impacts_per_period"] == 2
 
@@ -214,15 +213,14 @@ def _free_port():
 def test_an_external_scheduler_gives_the_local_table(gap_sweep, tmp_path):
     local = rows_of(gap_sweep[0] / "points.parquet")
     port = _free_port()
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
     dask = os.path.join(os.path.dirname(sys.executable), "dask")
     address = f"tcp://127.0.0.1:{port}"
     procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
-                              env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
     try:
         time.sleep(1.0)
         procs.append(subprocess.Popen([dask, "worker", address, "--nworkers", "2", "--nthreads", "1",
-                                       "--no-dashboard", "--host", "127.0.0.1"], env=env, cwd=ROOT,
+                                       "--no-dashboard", "--host", "127.0.0.1"], cwd=ROOT,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         run = sweep(PINNED, "--param", f"d={GAPS[0]}:{GAPS[-1]}:{len(GAPS)}", *BASE, "--out", tmp_path,
                     "--scheduler", address)

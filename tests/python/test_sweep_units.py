@@ -5,18 +5,16 @@ refused with a message naming the field, the value and what is allowed."""
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 import pytest
 
-from conftest import FMU_DIR, ROOT
-
-sys.path.insert(0, str(ROOT))
-from tools.sweep import measures  # noqa: E402
-from tools.sweep.cli import main  # noqa: E402
-from tools.sweep.errors import SweepError  # noqa: E402
-from tools.sweep.expr import Expression  # noqa: E402
+from beamstop_tools.sweep import measures
+from beamstop_tools.sweep.cli import main
+from beamstop_tools.sweep.errors import SweepError
+from beamstop_tools.sweep.expr import Expression
+from beamstop_tools.sweep.fmu import Stop, read_fmu
+from conftest import FMU_DIR
 
 PINNED = str(FMU_DIR / "PinnedBeamStop.fmu")
 
@@ -129,3 +127,21 @@ def test_a_missing_fmu_is_named(capsys, tmp_path):
     assert main([str(tmp_path / "nope.fmu"), "--param", "d=0:1:2", "--discard", "1", "--record", "5",
                  "--out", str(tmp_path)]) == 2
     assert "nope.fmu' does not exist" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("fmu, forcing, stop", [
+    # renamed variables (the scene's `names`): found like the default ones
+    ("PinnedBeamStop", "omega", Stop("stop", True, "impacts", "sticking", "stuck_time", "sticks", "w_stop", "v_stop")),
+    ("WaggBishopCantilever4", "base.omega",
+     Stop("tip_stop", True, "tip_stop.impacts", "tip_stop.sticking", "tip_stop.stuck_time", "tip_stop.sticks",
+          "tip_stop.w", "tip_stop.v")),
+    ("SpringStopHard", "shaker.omega", Stop("stop", False, "stop.contacts", None, None, None, "stop.w", "stop.v")),
+    ("RotatingBeamImpact", None, Stop("surface", False, "stop.contacts", None, None, None, None, None)),
+])
+def test_stops_and_forcing_are_read_from_the_model_description(fmu, forcing, stop):
+    info = read_fmu(FMU_DIR / f"{fmu}.fmu")
+    assert info.forcing == forcing
+    assert info.stops == [stop]
+    for name in (stop.counter, stop.sticking, stop.stuck_time, stop.sticks, stop.w, stop.v):
+        assert name is None or name in info.value_references
+    assert (info.default_output, info.default_rate) == ((stop.w, stop.v) if stop.w else ("theta", None))

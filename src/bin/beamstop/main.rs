@@ -55,7 +55,7 @@ fn package(args: &[String]) -> Result<(), String> {
     let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
     // Validate everything first: no FMU is written from an invalid scene.
     let scenes: Vec<Component> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
-    let binary = library_beside_executable("beamstop")?;
+    let binary = library_beside_executable("beamstop_fmu")?;
     let out = root().join("target").join("fmu");
     for scene in &scenes {
         let path = write_fmu(scene, &binary, &out)?;

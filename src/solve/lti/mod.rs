@@ -1,8 +1,8 @@
 //! Coupled linear phases: `q'' + D q' + K q = f(t) + W lambda`, `W^T q = d`.
 //!
-//! Sticking (seed 000 eqs. 29-33) holds some contact points on their stops;
+//! Sticking (VSM12 eqs. 29-33) holds some contact points on their stops;
 //! a compliant stop in contact adds `k w w^T` to K (the mode-transfer idea of
-//! seed 001). Either way the phase is linear and time invariant, but with
+//! RMTM). Either way the phase is linear and time invariant, but with
 //! non-proportional damping: it is reduced to the free coordinates `y`
 //! (`q = q_c + Z y`, `Z` an orthonormal basis of the constraint's null space),
 //! diagonalised once in complex first-order form, and propagated exactly,

@@ -213,7 +213,7 @@ impl CoupledSystem {
     }
 
     /// The constraint reactions `lambda = -(W^T W)^-1 W^T (f - D qd - K q)`
-    /// (seed 000 eq. 33, one row per held contact) as functionals.
+    /// (VSM12 eq. 33, one row per held contact) as functionals.
     pub fn reaction_functionals(&self) -> Vec<Functional> {
         self.reactions.clone()
     }

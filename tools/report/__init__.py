@@ -1,7 +1,0 @@
-"""The error-against-run-time report of beamstop (GitHub issue 3).
-
-`python -m tools.report.generate [--quick]` regenerates report/ (CSV, PNG,
-summary.md). Everything here is written from the seeds' equations, not from
-beamstop's source: the references and the baselines are independent of the
-code under test.
-"""
