@@ -10,7 +10,7 @@
  *
  * Built by tests/python/test_c_header.py:
  *   gcc -std=c99 -Wall -Werror -I<fmpy>/c-code -Iinclude tests/c/check_header.c
- *       -Ltarget/release -lbeamstop -Wl,-rpath,target/release
+ *       -Ltarget/release -lbeamstop_fmu -Wl,-rpath,target/release
  *
  * Run without arguments: prints fmi2GetVersion() and fmi2GetTypesPlatform().
  * Run with <resource URI> <GUID> <vr of w_stop> <vr of lambda>: also

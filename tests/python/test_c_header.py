@@ -53,7 +53,7 @@ def check_binary(tmp_path_factory):
     cmd = [gcc, "-std=c99", "-Wall", "-Wextra", "-Werror",
            f"-I{FMPY_C_CODE}", f"-I{HEADER_PATH.parent}",
            str(C_FILE), "-o", str(out),
-           f"-L{SO_PATH.parent}", "-lbeamstop", f"-Wl,-rpath,{SO_PATH.parent}"]
+           f"-L{SO_PATH.parent}", "-lbeamstop_fmu", f"-Wl,-rpath,{SO_PATH.parent}"]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     return out
