@@ -34,6 +34,7 @@ pub enum ParamKey {
     ActuatorPosition(usize),
     InitialQ(usize),
     InitialQd(usize),
+    IntegrationTolerance,
 }
 
 impl ParamKey {
@@ -54,6 +55,7 @@ impl ParamKey {
             ParamKey::ActuatorPosition(i) => format!("actuators[{i}].x"),
             ParamKey::InitialQ(j) => format!("initial.q[{j}]"),
             ParamKey::InitialQd(j) => format!("initial.qd[{j}]"),
+            ParamKey::IntegrationTolerance => "solver.integration_tolerance".into(),
         }
     }
 
@@ -405,6 +407,17 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
     }
     for j in 0..scene.n_modes() {
         push(ParamKey::InitialQd(j), mode_name(&scene.names, "qd0", "qd0[{j}]", j), format!("initial.qd[{j}]"), format!("Initial modal velocity of mode {}", j + 1), Unit::MetrePerSecond, limits.velocity_range(), false);
+    }
+    if scene.has_integrated_phase() {
+        push(
+            ParamKey::IntegrationTolerance,
+            "solver.integration_tolerance".into(),
+            "solver.integration_tolerance".into(),
+            "Relative tolerance of the integrated contact phases (closed-form phases are exact regardless); smaller is more accurate and slower".into(),
+            Unit::One,
+            crate::scene::INTEGRATION_TOLERANCE_RANGE,
+            false,
+        );
     }
     out
 }

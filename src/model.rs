@@ -312,12 +312,20 @@ impl Model {
 }
 
 /// The default cap on the work of one communication step (event-search
-/// points plus energy-balance nodes). One point costs about 0.15 N
-/// microseconds in free flight and up to twice that through chatter and
-/// sticking on the development machine (N = 4 to 500), so the cap keeps the
-/// worst step near a second at any number of modes (measured:
-/// `cargo run --release --example probe_cost`, `cargo test --release --test
+/// points plus energy-balance nodes; an integrated phase's step counts as
+/// [`INTEGRATED_STEP_WEIGHT`] points). One point costs about 0.06 N
+/// microseconds on the development machine (N = 1 to 500), so the cap
+/// keeps the worst step under a second at any number of modes, and a
+/// whole horizon of every packaged scene, the Hertz stop's 1 s with about
+/// 150 contacts among them, fits in one step (measured: `cargo run
+/// --release --example probe_cost`, `cargo test --release --test
 /// range_ends -- --nocapture`).
 pub fn default_probe_budget(n_modes: usize) -> u64 {
-    (2_000_000 / n_modes.max(1) as u64).min(1_000_000)
+    (8_000_000 / n_modes.max(1) as u64).min(4_000_000)
 }
+
+/// What one step of an integrated phase counts against the work cap, in
+/// search points: a Radau step with its Newton iterations (O(N) by
+/// [`crate::solve::low_rank`]) costs about as much as 6 of them at any N
+/// (8 us against 1.3 us at N = 20, 51 us against 9 us at N = 160).
+pub const INTEGRATED_STEP_WEIGHT: u64 = 6;

@@ -335,6 +335,19 @@ fn default_integration_tolerance() -> f64 {
     1e-10
 }
 
+/// Whether a law has a contact state whose phase is integrated.
+fn integrated(law: &StopLaw) -> bool {
+    law.states().iter().any(|c| law.term(*c) == crate::contact::PhaseTerm::Nonlinear)
+}
+
+impl Scene {
+    /// Whether some contact phase of the scene is integrated (then
+    /// `solver.integration_tolerance` matters).
+    pub fn has_integrated_phase(&self) -> bool {
+        self.stops.iter().any(|s| integrated(&s.law))
+    }
+}
+
 /// The range of `solver.integration_tolerance`.
 pub const INTEGRATION_TOLERANCE_RANGE: Range = Range { min: 1e-14, max: 1e-2, min_open: false, max_open: false };
 
@@ -550,7 +563,6 @@ impl Scene {
                 }
             }
         }
-        let integrated = |l: &StopLaw| l.states().iter().any(|c| l.term(*c) == crate::contact::PhaseTerm::Nonlinear);
         if let Some(i) = self.stops.iter().position(|s| integrated(&s.law)) {
             // An integrated contact phase takes every engaged stop as a
             // force: no constraint (a rigid stop) beside it.

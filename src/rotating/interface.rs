@@ -70,6 +70,13 @@ pub fn parameters(spec: &RotatingSpec) -> Vec<Parameter> {
             push("T", "hub.prescribed.T", "Duration of the spin-up".into(), Unit::Second, spec.spin_duration_range());
         }
     }
+    push(
+        "solver.tolerance",
+        "solver.tolerance",
+        "Relative tolerance of the integration; smaller is more accurate and slower".into(),
+        Unit::One,
+        super::spec::TOLERANCE_RANGE,
+    );
     out
 }
 

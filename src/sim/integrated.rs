@@ -19,6 +19,7 @@ use nalgebra::{DMatrix, DVector};
 use super::nonlinear::{NonlinearContact, NonlinearPhase};
 use super::{Channel, SimError, Simulation};
 use crate::contact::{Contact, Watch};
+use crate::solve::low_rank::LowRankJacobian;
 use crate::solve::radau::{ImplicitSystem, Radau, RadauOptions, Tol};
 use crate::solve::switch::{first_switch, DenseWatch};
 use crate::solve::{Functional, Jet, ModalState};
@@ -60,6 +61,11 @@ impl ImplicitSystem for NonlinearPhase {
 
     fn jacobian(&mut self, t: f64, y: &DVector<f64>, jac: &mut DMatrix<f64>) -> bool {
         NonlinearPhase::jacobian(self, t, y.as_slice(), jac);
+        true
+    }
+
+    fn low_rank_jacobian(&mut self, _t: f64, y: &DVector<f64>, jac: &mut LowRankJacobian) -> bool {
+        NonlinearPhase::low_rank_jacobian(self, y.as_slice(), jac);
         true
     }
 }
@@ -271,11 +277,7 @@ impl Simulation {
             }
             let super::Segment::Integrated(seg) = &mut self.segment else { unreachable!("an integrated segment") };
             if seg.step.as_ref().map_or(true, |s| s.1 <= scan) {
-                // A Radau step (a Jacobian, an LU of the 3 dim x 3 dim
-                // collocation system, Newton) costs what about 4 dim points
-                // of the closed-form search cost: it counts that much
-                // against the work cap of a communication step.
-                let weight = 4 * seg.phase.dim() as u64;
+                let weight = crate::model::INTEGRATED_STEP_WEIGHT;
                 *probes += weight;
                 self.stats.probes += 1;
                 if *probes > max_probes {

@@ -12,6 +12,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::contact::{Contact, Geometry, Law};
+use crate::solve::low_rank::LowRankJacobian;
 use crate::solve::ModalForcing;
 
 /// An engaged stop in a nonlinear phase: a force of the state.
@@ -132,6 +133,35 @@ impl NonlinearPhase {
                     jac[(2 * n + nc + i, n + j)] = (dpd * pd + (force - spring)) * g.side * g.w[j];
                 }
             }
+        }
+    }
+
+    /// `dF/dy` in low-rank modal form (the same entries as [`Self::jacobian`]).
+    pub fn low_rank_jacobian(&self, y: &[f64], jac: &mut LowRankJacobian) {
+        let n = self.n;
+        let nc = self.contacts.len();
+        if jac.omega2.len() != n || jac.w.len() != nc {
+            jac.omega2 = self.omega2.as_slice().to_vec();
+            jac.two_a = self.two_a.as_slice().to_vec();
+            jac.w = self.contacts.iter().map(|c| c.geometry.w.as_slice().to_vec()).collect();
+            jac.fp = vec![0.0; nc];
+            jac.fpd = vec![0.0; nc];
+            jac.rows = vec![(0, 0.0, 0.0); 2 * nc];
+        }
+        for (i, c) in self.contacts.iter().enumerate() {
+            let (p, pd) = self.penetration(i, y);
+            let (force, dp, dpd) = c.force(p, pd);
+            let side = c.geometry.side;
+            jac.fp[i] = dp;
+            jac.fpd[i] = dpd;
+            jac.rows[i] = (i, dp * side, dpd * side);
+            jac.rows[nc + i] = if force > 0.0 {
+                // E' = (F - F_spring) p'.
+                let (spring, dspring) = c.spring_force(p);
+                (i, (dp - dspring) * pd * side, (dpd * pd + (force - spring)) * side)
+            } else {
+                (i, 0.0, 0.0)
+            };
         }
     }
 

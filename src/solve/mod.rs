@@ -5,7 +5,8 @@
 //! modes ([`lti`]). Both are propagated in closed form from the state at the
 //! last event, and [`events`] finds the next switch of any of them.
 //! Nonlinear phases (Hertz contact, rotating beams) are integrated by
-//! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks.
+//! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks;
+//! a modal phase's Newton systems are solved in O(N) by [`low_rank`].
 
 pub mod complex;
 pub mod elementary;
@@ -14,6 +15,7 @@ pub mod forcing;
 pub mod free;
 pub mod functional;
 pub mod lti;
+pub mod low_rank;
 pub mod modal_state;
 pub mod oscillator;
 pub mod quadrature;

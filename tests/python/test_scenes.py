@@ -59,6 +59,7 @@ for name, modes in (("SpringStopSoft", 5), ("SpringStopHard", 20), ("SpringStopV
 EXPECTED["HertzStop"] = {
     "shaker.amplitude", "shaker.omega", "zeta", "stop.K", "stop.e", "stop.gap", "stop.x",
     *(f"stop.{o}" for o in SPRING_STOP_OUTPUTS), "tip.x", "root.x", "tip.w", "tip.v", "root.M", "energy",
+    "solver.integration_tolerance",
 } | modal(20, "q0[{j}]", "qd0[{j}]")
 EXPECTED["WaggBishopCantilever4"] = (EXPECTED["WaggBishopCantilever1"] - modal(1, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")) | modal(
     4, "q0[{j}]", "qd0[{j}]", "q[{j}]", "qd[{j}]", "FE[{j}]", "DE[{j}]")
@@ -67,9 +68,9 @@ EXPECTED["WaggBishopCantilever4"] = (EXPECTED["WaggBishopCantilever1"] - modal(1
 # the surface's outputs only where the scene has a surface; the spin-up's hub
 # motion is prescribed, so it has no torque input but the torque it needs.
 ROTATING_OUTPUTS = {"theta", "theta_dot", "tip.w", "tip.x", "tip.y", "root.M", "energy"}
-EXPECTED["RotatingBeamImpact"] = {"J_h", "K", "e", "theta0", "theta_dot0", "torque"} | ROTATING_OUTPUTS | {
+EXPECTED["RotatingBeamImpact"] = {"J_h", "K", "e", "theta0", "theta_dot0", "torque", "solver.tolerance"} | ROTATING_OUTPUTS | {
     f"stop.{o}" for o in ("force", "penetration", "contact", "contacts", "impulse", "E_dissipated")}
-EXPECTED["SpinUpBeam"] = {"J_h", "theta0", "omega_s", "T", "hub.torque"} | ROTATING_OUTPUTS
+EXPECTED["SpinUpBeam"] = {"J_h", "theta0", "omega_s", "T", "hub.torque", "solver.tolerance"} | ROTATING_OUTPUTS
 
 SI_UNITS = {"tip.w": "m", "tip.v": "m/s", "clamp.M": "N.m", "stop.lambda": "N", "stop.t_last_impact": "s",
             "shaker.amplitude": "m/s2", "shaker.omega": "rad/s", "force": "N", "a_clamp": "m/s2",
@@ -115,6 +116,34 @@ def test_default_experiment_matches_the_native_run(name, tmp_path):
     for o in outputs:
         a, b = result[o][-1], float(last[o])
         assert abs(a - b) <= 1e-10 * max(1.0, abs(b)), (o, a, b)
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+@pytest.mark.parametrize("steps", [1, 10])
+def test_the_whole_horizon_runs_in_one_or_ten_steps(name, steps):
+    # The work cap catches runaway work only: a master may step over the
+    # whole default experiment at default settings.
+    exp = read_model_description(str(FMU_DIR / f"{name}.fmu")).defaultExperiment
+    stop = float(exp.stopTime)
+    result = simulate_fmu(str(FMU_DIR / f"{name}.fmu"), stop_time=stop, output_interval=stop / steps)
+    assert result["time"][-1] == pytest.approx(stop)
+
+
+def test_the_tolerance_parameter_trades_accuracy_for_work():
+    # HertzStop's tolerance is a parameter: over its first contacts the
+    # answer moves towards the tightest one as the tolerance falls, and
+    # stays within 1000 times the tolerance asked (of the gap; measured
+    # 10 to 400 times over 21 contacts in 0.2 s).
+    fmu = str(FMU_DIR / "HertzStop.fmu")
+    common = dict(stop_time=0.1, output_interval=1e-4, output=["tip.w", "stop.contacts"])
+    tight = simulate_fmu(fmu, start_values={"solver.integration_tolerance": 1e-13}, **common)
+    assert tight["stop.contacts"][-1] >= 4
+    errors = []
+    for tolerance in (1e-4, 1e-8):
+        asked = simulate_fmu(fmu, start_values={"solver.integration_tolerance": tolerance}, **common)
+        errors.append(np.max(np.abs(asked["tip.w"] - tight["tip.w"])) / 1e-3)
+        assert errors[-1] < 1e3 * tolerance, (tolerance, errors[-1])
+    assert errors[0] > 10 * errors[1] > 0.0, errors
 
 
 @pytest.mark.parametrize("mutation, message", [
