@@ -86,7 +86,7 @@ const DT: f64 = T_END / N_OUT as f64;
 /// Interior dense-output samples of the watched functions per step.
 const INTERIOR: usize = 4;
 const CAP: f64 = 3.0;
-const BS_TOLS: [f64; 8] = [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13];
+const BS_TOLS: [f64; 11] = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14];
 const PEER_TOLS: [f64; 10] = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13];
 /// A solver onset farther than this from every reference onset is extra.
 const MATCH: f64 = 1e-5;

@@ -325,7 +325,7 @@ pub fn default_probe_budget(n_modes: usize) -> u64 {
 }
 
 /// What one step of an integrated phase counts against the work cap, in
-/// search points: a Radau step with its Newton iterations (O(N) by
-/// [`crate::solve::low_rank`]) costs about as much as 6 of them at any N
-/// (8 us against 1.3 us at N = 20, 51 us against 9 us at N = 160).
-pub const INTEGRATED_STEP_WEIGHT: u64 = 6;
+/// search points: a force-collocation step with its switch search costs
+/// about as much as 5 to 8 of them (HertzStop at tolerance 1e-8: 9.8 us per
+/// step against 1.3 us per point at N = 20, 49 us against 9 us at N = 160).
+pub const INTEGRATED_STEP_WEIGHT: u64 = 8;

@@ -1,26 +1,26 @@
 //! Integrated phases: while a stop whose law's phase is nonlinear (Hertz)
-//! is pressed or penetrated, the modal equations are integrated by Radau
-//! IIA ([`crate::solve::radau`]) instead of propagated in closed form,
-//! every engaged stop acting as a force of its law.
+//! is pressed or penetrated, the modal equations are stepped by force
+//! collocation ([`crate::solve::collocation`]) instead of propagated in
+//! closed form: every engaged stop's force is a polynomial over a step,
+//! every mode exact under it, and only the nodal forces are solved for.
 //!
-//! The integrator starts at the phase's anchor with a step size that
-//! depends only on the anchor, and steps on its own grid: communication
-//! times never shorten a step, so the trajectory does not depend on them,
-//! and a restored state rebuilds the same steps from its anchor (the
-//! state needs no integrator history). Each accepted step's collocation
-//! polynomial goes to the switch locator ([`crate::solve::switch`]:
-//! samples, interior minima of the gaps and penetrations, bisection), and
-//! the state at a switch is recomputed by one Radau step from the step's
-//! start (order 5, not the polynomial's 3). The step is also capped at a
-//! quarter of the linearised contact period.
+//! The stepper starts at the phase's anchor with a step size that depends
+//! only on the anchor, and steps on its own grid: communication times
+//! never shorten a step, so the trajectory does not depend on them, and a
+//! restored state rebuilds the same steps from its anchor (the state needs
+//! no integrator history). Each accepted step's dense output (the exact
+//! motion under the step's force polynomials) goes to the switch locator
+//! ([`crate::solve::switch`]: samples, interior minima of the gaps and
+//! penetrations, bisection), and the state at a switch is recomputed by a
+//! collocation step of its own from the step's start (the method's full
+//! order at step ends, where the dense output has stage order).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 use super::nonlinear::{NonlinearContact, NonlinearPhase};
 use super::{Channel, SimError, Simulation};
 use crate::contact::{Contact, Watch};
-use crate::solve::low_rank::LowRankJacobian;
-use crate::solve::radau::{ImplicitSystem, Radau, RadauOptions, Tol};
+use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointContact};
 use crate::solve::switch::{first_switch, DenseWatch};
 use crate::solve::{Functional, Jet, ModalState};
 
@@ -33,41 +33,21 @@ pub(super) enum Evaluator {
     Affine(Functional),
 }
 
-/// The integrated segment: the phase's equations, the integrator, and
-/// the last accepted step.
+/// The integrated segment: the phase's forces, the stepper, and the last
+/// accepted step.
 #[derive(Clone, Debug)]
 pub(super) struct IntegratedSegment {
     pub phase: NonlinearPhase,
-    pub solver: Radau,
+    pub solver: ForceCollocation,
     pub evaluators: Vec<Evaluator>,
     /// The last accepted step `[t0, t1]` and the state at its start.
     pub step: Option<(f64, f64, DVector<f64>)>,
-    /// The state at a time inside the last step computed by a Radau step
-    /// of its own from the step's start (order 5, where the collocation
-    /// polynomial has order 3): what the outputs read.
+    /// The state at a time inside the last step computed by a step of its
+    /// own from the step's start (full order, where the dense output has
+    /// stage order): what the outputs read.
     pub exact: Option<(f64, DVector<f64>)>,
     pub anchor_time: f64,
     pub anchor: DVector<f64>,
-}
-
-impl ImplicitSystem for NonlinearPhase {
-    fn dim(&self) -> usize {
-        NonlinearPhase::dim(self)
-    }
-
-    fn rhs(&mut self, t: f64, y: &DVector<f64>, dy: &mut DVector<f64>) {
-        NonlinearPhase::rhs(self, t, y.as_slice(), dy.as_mut_slice());
-    }
-
-    fn jacobian(&mut self, t: f64, y: &DVector<f64>, jac: &mut DMatrix<f64>) -> bool {
-        NonlinearPhase::jacobian(self, t, y.as_slice(), jac);
-        true
-    }
-
-    fn low_rank_jacobian(&mut self, _t: f64, y: &DVector<f64>, jac: &mut LowRankJacobian) -> bool {
-        NonlinearPhase::low_rank_jacobian(self, y.as_slice(), jac);
-        true
-    }
 }
 
 impl IntegratedSegment {
@@ -83,7 +63,7 @@ impl IntegratedSegment {
         match &self.step {
             Some((t0, _, y0)) if t == *t0 => out.copy_from(y0),
             Some(_) => {
-                if self.solver.dense(t, out).is_err() {
+                if self.solver.dense(t, out).is_none() {
                     // Outside the last step (never asked): its nearest end.
                     out.copy_from(self.solver.y());
                 }
@@ -124,6 +104,43 @@ impl IntegratedSegment {
     }
 }
 
+impl IntegratedSegment {
+    /// The state at a switch at `te` in the step `[t0, t1]` from `y0`: a
+    /// step of its own (the end state at `t1`).
+    fn switch_state(&self, t0: f64, y0: &DVector<f64>, t1: f64, te: f64) -> DVector<f64> {
+        let mut at = DVector::zeros(self.phase.dim());
+        if te == t1 || te <= t0 {
+            self.y_at(te, &mut at);
+            return at;
+        }
+        match self.solver.single_step(&self.phase, t0, y0, te) {
+            Ok(y) => y,
+            Err(_) => {
+                self.y_at(te, &mut at);
+                at
+            }
+        }
+    }
+
+    /// The rate of watched function `i` in the integrated state `y`, for
+    /// the geometric ones.
+    fn rate_in(&self, i: usize, y: &DVector<f64>) -> Option<f64> {
+        let n = self.phase.n;
+        let dot = |a: &[f64], sign: f64| sign * a.iter().zip(y.rows(n, n).iter()).map(|(x, d)| x * d).sum::<f64>();
+        match &self.evaluators[i] {
+            Evaluator::Affine(h) => Some(dot(h.q.as_slice(), 1.0)),
+            Evaluator::Nonlinear { contact, watch } => {
+                let g = &self.phase.contacts[*contact].geometry;
+                match watch {
+                    Watch::Penetration => Some(dot(g.w.as_slice(), g.side)),
+                    Watch::Gap => Some(dot(g.w.as_slice(), -g.side)),
+                    _ => None,
+                }
+            }
+        }
+    }
+}
+
 /// The watched functions along the last accepted step, for the switch
 /// locator: gaps and penetrations give their rate (`w . q'` from the
 /// dense output's derivative).
@@ -147,23 +164,9 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
-        let n = self.phase.n;
-        let q_rate = |a: &[f64], sign: f64| {
-            let mut dy = DVector::zeros(self.phase.dim());
-            self.solver.dense_derivative(t, &mut dy).ok()?;
-            Some(sign * a.iter().zip(dy.rows(0, n).iter()).map(|(x, d)| x * d).sum::<f64>())
-        };
-        match &self.evaluators[i] {
-            Evaluator::Affine(h) => q_rate(h.q.as_slice(), 1.0),
-            Evaluator::Nonlinear { contact, watch } => {
-                let g = &self.phase.contacts[*contact].geometry;
-                match watch {
-                    Watch::Penetration => q_rate(g.w.as_slice(), g.side),
-                    Watch::Gap => q_rate(g.w.as_slice(), -g.side),
-                    _ => None,
-                }
-            }
-        }
+        let mut y = DVector::zeros(self.phase.dim());
+        self.y_at(t, &mut y);
+        self.rate_in(i, &y)
     }
 }
 
@@ -175,8 +178,7 @@ impl IntegratedSegment {
         if t <= t0 || t >= t1 || t > self.solver.t() {
             return;
         }
-        let mut y = DVector::zeros(self.phase.dim());
-        if one_step(&mut self.phase, t0, &y0, t, &mut y).is_ok() {
+        if let Ok(y) = self.solver.single_step(&self.phase, t0, &y0, t) {
             self.exact = Some((t, y));
         }
     }
@@ -187,8 +189,6 @@ impl Simulation {
     /// every engaged stop of a law with a force is one of its contacts.
     pub(super) fn integrated_segment(&self) -> Result<IntegratedSegment, SimError> {
         let n = self.model.n_modes();
-        let omega2 = DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega));
-        let two_a = DVector::from_iterator(n, self.model.oscillators.iter().map(|o| 2.0 * o.a));
         let mut contacts = Vec::new();
         let mut index = vec![usize::MAX; self.model.stops.len()];
         for (i, (m, s)) in self.model.stops.iter().zip(&self.state.stops).enumerate() {
@@ -205,10 +205,11 @@ impl Simulation {
                 _ => Evaluator::Nonlinear { contact: index[ch.stop], watch: ch.watch },
             })
             .collect();
-        // A step no longer than a quarter of the fastest linearised contact
-        // period at the larger of the current and a millionth-of-the-gap
-        // penetration, nor the structure's shortest period.
-        let mut max_step = self.model.shortest_period();
+        // The contact's time scale: a quarter of the fastest linearised
+        // contact period at the larger of the current and a
+        // millionth-of-the-gap penetration caps the step (the force
+        // polynomial must resolve the pulse).
+        let mut quarter = f64::INFINITY;
         let slowest = self.model.oscillators.iter().map(|o| o.omega).fold(f64::INFINITY, f64::min);
         let (mut scale_q, mut scale_v) = (0.0f64, 0.0f64);
         for c in &contacts {
@@ -228,12 +229,15 @@ impl Simulation {
             let k_lin = c.law.raw_force(p, 0.0, c.onset_speed).1;
             let omega_c = (k_lin * w2).sqrt();
             if omega_c > 0.0 {
-                max_step = max_step.min(0.25 * std::f64::consts::TAU / omega_c);
+                quarter = quarter.min(0.25 * std::f64::consts::TAU / omega_c);
             }
             scale_q = scale_q.max(g.gap.abs().max(depth) / w_max);
             scale_v = scale_v.max(v0 / w_max);
         }
-        let mut phase = NonlinearPhase::new(omega2, two_a, self.dynamics.forcing.clone(), contacts);
+        if !quarter.is_finite() {
+            quarter = self.model.shortest_period();
+        }
+        let phase = NonlinearPhase::new(n, contacts);
         let dim = phase.dim();
         let mut anchor = DVector::zeros(dim);
         anchor.rows_mut(0, n).copy_from(&self.state.anchor.q);
@@ -241,15 +245,15 @@ impl Simulation {
         let tol = self.model.integration_tolerance;
         let q_scale = scale_q.max(self.state.anchor.q.amax()).max(f64::MIN_POSITIVE);
         let v_scale = (q_scale * slowest).max(scale_v).max(self.state.anchor.qd.amax()).max(f64::MIN_POSITIVE);
-        let mut atol = DVector::zeros(dim);
-        atol.rows_mut(0, n).fill(tol * q_scale);
-        atol.rows_mut(n, n).fill(tol * v_scale);
-        // Impulses and dissipation are integrals of the state, as accurate
-        // as it: they need no error control of their own.
-        atol.rows_mut(2 * n, dim - 2 * n).fill(1e100);
-        let options = RadauOptions { rtol: Tol::Scalar(tol), atol: Tol::Vector(atol), h_max: max_step, max_steps: u64::MAX, ..RadauOptions::default() };
-        let solver = Radau::new(&mut phase, self.state.anchor_time, &anchor, options)
-            .map_err(|e| integration(self.state.anchor_time, e.to_string()))?;
+        let points = phase.contacts.iter().map(|c| PointContact { d: &c.geometry.w * c.geometry.side, gap: c.geometry.gap }).collect();
+        // An onset's force grows as t^1.5: a first step of tol^(2/7) of the
+        // contact's scale carries that corner's error to the tolerance.
+        let h_init = quarter * tol.powf(2.0 / 7.0).min(1e-2);
+        let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: quarter };
+        let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
+        if let Some(super::Segment::Integrated(previous)) = &self.spare {
+            solver.adopt_kernels(&previous.solver);
+        }
         Ok(IntegratedSegment { phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor })
     }
 
@@ -296,20 +300,41 @@ impl Simulation {
                 self.state.scan = t1;
                 continue;
             };
-            let te = located.time;
+            let mut te = located.time;
             if te > t_end {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
             }
-            // The state at the switch: one Radau step from the step's start.
-            let dim = seg.phase.dim();
+            // The state at the switch: a step of its own from the step's start.
             let y0 = seg.step.as_ref().expect("a step").2.clone();
-            let mut at = DVector::zeros(dim);
-            if te == t1 || te <= t0 || one_step(&mut seg.phase, t0, &y0, te, &mut at).is_err() {
-                seg.y_at(te, &mut at);
-            } else {
-                // The totals the switch closes the phase with come from this
-                // state too, as they do when the run stopped here first.
+            let mut at = seg.switch_state(t0, &y0, t1, te);
+            // The zero is the dense output's (stage order): the state to
+            // full order may lie a rounding-sized distance short of it.
+            // Newton on the full-order state carries the switch past the
+            // zero, as the locator promises.
+            if let Some(&(c, slope)) = located.at_zero.first() {
+                for _ in 0..6 {
+                    let g = seg.evaluate(&seg.evaluators[c], &at);
+                    if g <= 0.0 {
+                        break;
+                    }
+                    let rate = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                    let next = (te - g / rate).max(te + 4.0 * f64::EPSILON * te.abs());
+                    if next > t_end {
+                        self.state.scan = self.state.scan.max(t_end);
+                        return Ok(None);
+                    }
+                    // A step on from the switch state.
+                    at = match seg.solver.single_step(&seg.phase, te, &at, next) {
+                        Ok(y) => y,
+                        Err(_) => seg.switch_state(t0, &y0, t1, next),
+                    };
+                    te = next;
+                }
+            }
+            if te != t1 && te > t0 {
+                // The totals the switch closes the phase with come from
+                // this state too, as they do when the run stopped here first.
                 seg.exact = Some((te, at.clone()));
             }
             let n = seg.phase.n;
@@ -339,19 +364,10 @@ pub(super) struct IntegratedSwitch {
     pub from: f64,
 }
 
-/// One Radau step from `(t0, y0)` to `t1` without error control: the state
-/// at a switch to the method's full order.
-fn one_step(phase: &mut NonlinearPhase, t0: f64, y0: &DVector<f64>, t1: f64, out: &mut DVector<f64>) -> Result<(), crate::solve::radau::RadauError> {
-    let options = RadauOptions { h_init: Some(t1 - t0), fixed_step: true, ..RadauOptions::default() };
-    let mut solver = Radau::new(phase, t0, y0, options)?;
-    solver.step(phase, t1)?;
-    out.copy_from(solver.y());
-    Ok(())
-}
-
 fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
     let (t0, y0) = (seg.solver.t(), seg.solver.y().clone_owned());
-    let (a, b) = seg.solver.step(&mut seg.phase, f64::MAX).map_err(|e| integration(t0, e.to_string()))?;
+    let (a, b) = seg.solver.step(&seg.phase).map_err(|e| integration(t0, e.to_string()))?;
+    seg.solver.prefill(&crate::solve::switch::grid(a, b));
     debug_assert_eq!(a, t0);
     seg.step = Some((a, b, y0));
     Ok(())

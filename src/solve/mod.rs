@@ -4,10 +4,12 @@
 //! damped oscillators ([`free`]); sticking and compliant contact couple the
 //! modes ([`lti`]). Both are propagated in closed form from the state at the
 //! last event, and [`events`] finds the next switch of any of them.
-//! Nonlinear phases (Hertz contact, rotating beams) are integrated by
-//! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks;
-//! a modal phase's Newton systems are solved in O(N) by [`low_rank`].
+//! A modal phase with a nonlinear contact force (Hertz) is stepped by
+//! [`collocation`]: the force a polynomial over a step, every mode exact
+//! under it ([`phi`]); the rotating beam, nonlinear in its whole state, by
+//! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks.
 
+pub mod collocation;
 pub mod complex;
 pub mod elementary;
 pub mod events;
@@ -15,9 +17,9 @@ pub mod forcing;
 pub mod free;
 pub mod functional;
 pub mod lti;
-pub mod low_rank;
 pub mod modal_state;
 pub mod oscillator;
+pub mod phi;
 pub mod quadrature;
 pub mod radau;
 pub mod switch;

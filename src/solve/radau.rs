@@ -28,8 +28,6 @@
 use nalgebra::{DMatrix, DVector};
 use std::fmt;
 
-use super::low_rank::{LowRankJacobian, Shifted};
-use super::C64;
 
 /// The problem `y' = f(t, y)`.
 pub trait ImplicitSystem {
@@ -39,13 +37,6 @@ pub trait ImplicitSystem {
     /// `jac = df/dy` at `(t, y)`; return `false` (the default) to have the
     /// solver difference `rhs` instead (one-sided, `n` evaluations).
     fn jacobian(&mut self, _t: f64, _y: &DVector<f64>, _jac: &mut DMatrix<f64>) -> bool {
-        false
-    }
-    /// `jac = df/dy` at `(t, y)` in low-rank modal form; return `false`
-    /// (the default) when the system has no such form. A system that has
-    /// one always has it: the solver asks once and then solves its linear
-    /// systems in O(dim) ([`super::low_rank`]).
-    fn low_rank_jacobian(&mut self, _t: f64, _y: &DVector<f64>, _jac: &mut LowRankJacobian) -> bool {
         false
     }
 }
@@ -310,12 +301,6 @@ pub struct Radau {
     e1: DMatrix<f64>,
     piv1: Vec<usize>,
     lu_h: f64,
-    /// The Jacobian in low-rank form and `GAMMA/h I - J`, `(ALPHA + i
-    /// BETA)/h I - J` factorised with it, when the system has that form
-    /// (then `jac` and the dense LUs stay empty).
-    low_rank: Option<(LowRankJacobian, Shifted, Shifted)>,
-    /// Work (`n`): the imaginary part of a real solve.
-    im: DVector<f64>,
     /// Stage increments `Z`, `F(Z)`, residual / increment, work (all `3n`).
     z: DVector<f64>,
     fz: DVector<f64>,
@@ -373,9 +358,7 @@ impl Radau {
         let atol = atol_u.component_mul(&rtol).component_div(&rtol_u);
         let r1 = rtol.min();
         let (v, v3) = (DVector::zeros(n), DVector::zeros(3 * n));
-        let mut low_rank = LowRankJacobian::default();
-        let low_rank = sys.low_rank_jacobian(t0, y0, &mut low_rank).then_some((low_rank, Shifted::default(), Shifted::default()));
-        let m = if low_rank.is_some() { 0 } else { n };
+        let m = n;
         let mut s = Radau {
             fnewt: (10.0 * EPS / r1).max(0.03f64.min(r1.sqrt())),
             n, rtol_u, atol_u, rtol, atol, t: t0, y: y0.clone(), f0: v.clone(), h: 0.0,
@@ -387,7 +370,6 @@ impl Radau {
             e1: DMatrix::zeros(m, m),
             piv1: vec![0; m],
             lu_h: f64::NAN,
-            low_rank, im: v.clone(),
             z: v3.clone(), fz: v3.clone(), dz: v3.clone(), w3: v3.clone(), cd: v3,
             ytmp: v.clone(), ftmp: v.clone(), scal: v.clone(), f2: v.clone(), err_v: v.clone(), yc: v,
             dense_span: None, first: true, reject: false, faccon: 1.0, theta: 1.0, hacc: 0.0, erracc: 0.0, attempts: 0,
@@ -468,16 +450,6 @@ impl Radau {
 
     fn eval_jac(&mut self, sys: &mut dyn ImplicitSystem) -> Result<(), RadauError> {
         self.stats.jacobians += 1;
-        if let Some((jac, _, _)) = &mut self.low_rank {
-            if !(sys.low_rank_jacobian(self.t, &self.y, jac) && jac.dim() == self.n) {
-                return Err(RadauError::InvalidInput("the low-rank Jacobian changed its form"));
-            }
-            if !jac.is_finite() {
-                return Err(RadauError::NonFinite { t: self.t });
-            }
-            (self.jac_valid, self.jac_fresh, self.want_jac, self.lu_h) = (true, true, false, f64::NAN);
-            return Ok(());
-        }
         if !sys.jacobian(self.t, &self.y, &mut self.jac) {
             for j in 0..self.n {
                 self.ytmp.copy_from(&self.y);
@@ -502,11 +474,6 @@ impl Radau {
     fn factor(&mut self, h: f64) -> bool {
         let n = self.n;
         self.stats.lu_decompositions += 1;
-        if let Some((jac, real, complex)) = &mut self.low_rank {
-            let ok = jac.factor(C64::new(GAMMA / h, 0.0), real) && jac.factor(C64::new(ALPHA / h, BETA / h), complex);
-            self.lu_h = if ok { h } else { f64::NAN };
-            return ok;
-        }
         self.e1.copy_from(&self.jac);
         self.e1.neg_mut();
         self.e2r.copy_from(&self.e1);
@@ -534,14 +501,8 @@ impl Radau {
         }
         let (w1, w23) = self.w3.as_mut_slice().split_at_mut(n);
         let (w2, w3) = w23.split_at_mut(n);
-        if let Some((jac, real, complex)) = &self.low_rank {
-            self.im.fill(0.0);
-            jac.solve(real, w1, self.im.as_mut_slice());
-            jac.solve(complex, w2, w3);
-        } else {
-            lu_solve(&self.e1, &self.piv1, w1);
-            lu_solve_c(&self.e2r, &self.e2i, &self.piv2, w2, w3);
-        }
+        lu_solve(&self.e1, &self.piv1, w1);
+        lu_solve_c(&self.e2r, &self.e2i, &self.piv2, w2, w3);
         for k in 0..n {
             let w = [self.w3[k], self.w3[n + k], self.w3[2 * n + k]];
             for i in 0..3 {
@@ -636,13 +597,6 @@ impl Radau {
         let n = self.n;
         self.w3.fill(0.0);
         for j in 0..3 {
-            if let Some((jac, _, _)) = &self.low_rank {
-                for l in 0..n {
-                    self.ytmp[l] = (self.y[l] + self.z[j * n + l]).abs();
-                }
-                jac.abs_times(self.ytmp.as_slice(), &mut self.w3.as_mut_slice()[j * n..(j + 1) * n]);
-                continue;
-            }
             for l in 0..n {
                 let yl = (self.y[l] + self.z[j * n + l]).abs();
                 for k in 0..n {
@@ -664,12 +618,7 @@ impl Radau {
 
     /// `err_v <- (GAMMA/h I - J)^-1 err_v`.
     fn filter_error(&mut self) {
-        if let Some((jac, real, _)) = &self.low_rank {
-            self.im.fill(0.0);
-            jac.solve(real, self.err_v.as_mut_slice(), self.im.as_mut_slice());
-        } else {
-            lu_solve(&self.e1, &self.piv1, self.err_v.as_mut_slice());
-        }
+        lu_solve(&self.e1, &self.piv1, self.err_v.as_mut_slice());
     }
 
     /// RADAU5's filtered embedded estimate (ESTRAD), RMS-scaled.

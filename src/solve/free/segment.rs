@@ -135,7 +135,55 @@ impl FreeSegment {
         }
     }
 
-    fn evaluate_after_anchor(&self, dynamics: &FreeDynamics, s: f64, out: &mut ModalState, mut increment: Option<&mut Increment>) {
+    /// The state at `t >= t0` from the kernels `(Ec, Es)` of every mode at
+    /// `t - t0`, computed beforehand (steps of one size share them).
+    pub fn state_with_kernels(&self, dynamics: &FreeDynamics, t: f64, kernels: &[(f64, f64)], out: &mut ModalState) {
+        let s = t - self.t0;
+        if s == 0.0 {
+            self.at_anchor(dynamics, out, None);
+            return;
+        }
+        self.evaluate_with(dynamics, s, out, None, Some(kernels));
+    }
+
+    fn evaluate_after_anchor(&self, dynamics: &FreeDynamics, s: f64, out: &mut ModalState, increment: Option<&mut Increment>) {
+        self.evaluate_with(dynamics, s, out, increment, None);
+    }
+
+    /// Every mode's state, each from its kernels, without the increment.
+    fn sum_modes(&self, dynamics: &FreeDynamics, s: f64, rotations: &[(C64, C64)], kernels: impl Fn(usize, &crate::solve::Oscillator) -> (f64, f64), out: &mut ModalState) {
+        let harmonics = &dynamics.forcing.harmonics;
+        let n_harmonics = harmonics.len();
+        let n = self.modes.len();
+        let (q, qd) = (&mut out.q.as_mut_slice()[..n], &mut out.qd.as_mut_slice()[..n]);
+        let oscillators = &dynamics.oscillators[..n];
+        let parts = &self.parts[..n * n_harmonics];
+        for (j, (seg, osc)) in self.modes.iter().zip(oscillators).enumerate() {
+            let (ec, es) = kernels(j, osc);
+            let v0 = seg.beta - osc.a * seg.alpha;
+            let mut x = seg.alpha * ec + seg.beta * es + seg.x_static;
+            let mut v = v0 * ec - (osc.a * v0 + osc.omega * osc.omega * seg.alpha) * es;
+            let mode_parts = &parts[j * n_harmonics..(j + 1) * n_harmonics];
+            for ((part, h), (rot, _)) in mode_parts.iter().zip(harmonics).zip(rotations) {
+                match part {
+                    HarmonicPart::Steady(pb) => {
+                        let z = pb * rot;
+                        x += z.re;
+                        v -= h.omega * z.im;
+                    }
+                    HarmonicPart::FromRest(b) => {
+                        let (g, gd) = osc.harmonic_from_rest(h.omega, s, *rot);
+                        x += (b * g).re;
+                        v += (b * gd).re;
+                    }
+                }
+            }
+            q[j] = x;
+            qd[j] = v;
+        }
+    }
+
+    fn evaluate_with(&self, dynamics: &FreeDynamics, s: f64, out: &mut ModalState, mut increment: Option<&mut Increment>, kernels: Option<&[(f64, f64)]>) {
         // e^{i W s} and e^{i W s} - 1 without cancellation, shared by
         // every mode: one sin_cos of the half angle for both.
         let rotation = |h: &crate::solve::forcing::Harmonic| {
@@ -163,29 +211,7 @@ impl FreeSegment {
         let oscillators = &dynamics.oscillators[..n];
         let parts = &self.parts[..n * n_harmonics];
         let Some(inc) = increment.as_deref_mut() else {
-            for (j, (seg, osc)) in self.modes.iter().zip(oscillators).enumerate() {
-                let (ec, es) = osc.kernels(s);
-                let v0 = seg.beta - osc.a * seg.alpha;
-                let mut x = seg.alpha * ec + seg.beta * es + seg.x_static;
-                let mut v = v0 * ec - (osc.a * v0 + osc.omega * osc.omega * seg.alpha) * es;
-                let mode_parts = &parts[j * n_harmonics..(j + 1) * n_harmonics];
-                for ((part, h), (rot, _)) in mode_parts.iter().zip(harmonics).zip(rotations) {
-                    match part {
-                        HarmonicPart::Steady(pb) => {
-                            let z = pb * rot;
-                            x += z.re;
-                            v -= h.omega * z.im;
-                        }
-                        HarmonicPart::FromRest(b) => {
-                            let (g, gd) = osc.harmonic_from_rest(h.omega, s, *rot);
-                            x += (b * g).re;
-                            v += (b * gd).re;
-                        }
-                    }
-                }
-                q[j] = x;
-                qd[j] = v;
-            }
+            self.sum_modes(dynamics, s, rotations, |j, osc| kernels.map_or_else(|| osc.kernels(s), |k| k[j]), out);
             return;
         };
         // e^{i Omega t} = e^{i Omega t0} e^{i Omega s}, for the load's derivatives.
