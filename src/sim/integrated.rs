@@ -113,7 +113,7 @@ impl IntegratedSegment {
             self.y_at(te, &mut at);
             return at;
         }
-        match self.solver.single_step(&self.phase, t0, y0, te) {
+        match self.solver.single_step(&self.phase, t0, y0, te, true) {
             Ok(y) => y,
             Err(_) => {
                 self.y_at(te, &mut at);
@@ -178,7 +178,7 @@ impl IntegratedSegment {
         if t <= t0 || t >= t1 || t > self.solver.t() {
             return;
         }
-        if let Ok(y) = self.solver.single_step(&self.phase, t0, &y0, t) {
+        if let Ok(y) = self.solver.single_step(&self.phase, t0, &y0, t, self.solver.near_corner(t)) {
             self.exact = Some((t, y));
         }
     }
@@ -325,7 +325,7 @@ impl Simulation {
                         return Ok(None);
                     }
                     // A step on from the switch state.
-                    at = match seg.solver.single_step(&seg.phase, te, &at, next) {
+                    at = match seg.solver.single_step(&seg.phase, te, &at, next, false) {
                         Ok(y) => y,
                         Err(_) => seg.switch_state(t0, &y0, t1, next),
                     };

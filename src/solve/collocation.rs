@@ -329,15 +329,15 @@ impl ForceCollocation {
     /// under error control landing on `t1` (the last before a separation
     /// ends on the force's `p^1.5` corner, which a step over the whole
     /// interval may miss). Warm-started from the last step's force.
-    pub fn single_step(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, t1: f64) -> Result<DVector<f64>, NewtonFailure> {
+    /// `corner`: `t1` may be where a force ends (a switch; see
+    /// [`Self::near_corner`]).
+    pub fn single_step(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, t1: f64, corner: bool) -> Result<DVector<f64>, NewtonFailure> {
         let order = (self.scheme.s + 2) as f64;
         let (mut t, mut y) = (t0, y0.clone());
-        // Pieces shrinking fourfold toward t1: where a force ends there in
-        // a p^1.5 corner (a separation), the last, tol^(2/7) of the
-        // interval long, carries the corner's error to the tolerance
-        // (every state asked for is computed so, switch or not: a restore
-        // recomputes them without knowing which).
-        let smallest = self.options.tol.powf(2.0 / 7.0);
+        // Pieces shrinking fourfold toward a corner at t1: where a force
+        // ends there as p^1.5 (a separation), the last, tol^(2/7) of the
+        // interval long, carries the corner's error to the tolerance.
+        let smallest = if corner { self.options.tol.powf(2.0 / 7.0) } else { 1.0 };
         let mut piece = 0.75;
         while piece * 0.25 > smallest && t1 - t > 0.0 {
             let h_try = piece * (t1 - t0);
@@ -367,6 +367,19 @@ impl ForceCollocation {
             }
         }
         Err(NewtonFailure)
+    }
+
+    /// Whether `t` in the last step may lie at or near a force's corner:
+    /// some contact's force polynomial there is below a hundredth of its
+    /// largest nodal value (a function of the step alone, so a restore
+    /// decides alike).
+    pub fn near_corner(&self, t: f64) -> bool {
+        let Some(l) = &self.last else { return false };
+        let sigma = (t - l.t0) / l.h;
+        l.force.iter().any(|poly| {
+            let peak = self.scheme.c.iter().map(|c| horner(poly, *c).abs()).fold(0.0f64, f64::max);
+            horner(poly, sigma) < 0.01 * peak
+        })
     }
 
     /// Nodal forces to start Newton from: the last step's polynomial where
@@ -906,7 +919,7 @@ mod tests {
         // The dense output (stage order) and a single step to the same time (full order).
         let want_mid = integrate(t1);
         let last = col.last_step().unwrap();
-        let single = col.single_step(&law, last.t0, &last.y0, t1).unwrap();
+        let single = col.single_step(&law, last.t0, &last.y0, t1, false).unwrap();
         for k in 0..6 {
             let scale: f64 = if k < 3 { 0.01 } else { 0.5 };
             assert!((single[k] - want_mid[k]).abs() < 1e-9 * scale, "single step, component {k}: {} vs {}", single[k], want_mid[k]);
