@@ -248,8 +248,8 @@ impl Simulation {
         let points = phase.contacts.iter().map(|c| PointContact { d: &c.geometry.w * c.geometry.side, gap: c.geometry.gap }).collect();
         // An onset's force grows as t^1.5: a first step of tol^(2/7) of the
         // contact's scale carries that corner's error to the tolerance.
-        let h_init = quarter * tol.powf(2.0 / 7.0).min(1e-2);
-        let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: quarter };
+        let h_init = quarter * tol.powf(2.0 / 7.0).min(0.25);
+        let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: 16.0 * quarter };
         let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
         if let Some(super::Segment::Integrated(previous)) = &self.spare {
             solver.adopt_kernels(&previous.solver);

@@ -148,13 +148,69 @@ fn taylor_shift(p: &[f64], sigma: f64, ratio: f64, out: &mut [f64]) {
     }
 }
 
+/// A small dense LU with partial pivoting, in place (the Newton matrix
+/// of one step: 4 rows per contact).
+struct SmallLu {
+    n: usize,
+    a: Vec<f64>,
+    pivots: Vec<usize>,
+}
+
+impl SmallLu {
+    fn new(n: usize) -> Self {
+        SmallLu { n, a: vec![0.0; n * n], pivots: vec![0; n] }
+    }
+
+    /// Factors `a`; `false` when singular.
+    fn factor(&mut self) -> bool {
+        let n = self.n;
+        for k in 0..n {
+            let p = (k..n).max_by(|&i, &j| self.a[i * n + k].abs().total_cmp(&self.a[j * n + k].abs())).expect("a row");
+            if !(self.a[p * n + k].abs() > 0.0) {
+                return false;
+            }
+            self.pivots[k] = p;
+            if p != k {
+                for c in 0..n {
+                    self.a.swap(k * n + c, p * n + c);
+                }
+            }
+            let pivot = self.a[k * n + k];
+            for i in k + 1..n {
+                let factor = self.a[i * n + k] / pivot;
+                self.a[i * n + k] = factor;
+                for c in k + 1..n {
+                    self.a[i * n + c] -= factor * self.a[k * n + c];
+                }
+            }
+        }
+        true
+    }
+
+    /// `b <- A^-1 b`.
+    fn solve(&self, b: &mut [f64]) {
+        let n = self.n;
+        for k in 0..n {
+            b.swap(k, self.pivots[k]);
+        }
+        for i in 0..n {
+            let s: f64 = (0..i).map(|c| self.a[i * n + c] * b[c]).sum();
+            b[i] -= s;
+        }
+        for i in (0..n).rev() {
+            let s: f64 = (i + 1..n).map(|c| self.a[i * n + c] * b[c]).sum();
+            b[i] = (b[i] - s) / self.a[i * n + i];
+        }
+    }
+}
+
 /// `int_0^sigma` of the polynomial with monomial coefficients `coeffs`.
 fn integral(coeffs: &[f64], sigma: f64) -> f64 {
     coeffs.iter().enumerate().rev().fold(0.0, |acc, (m, a)| acc * sigma + a / (m + 1) as f64) * sigma
 }
 
-/// Intervals of the switch locator's grid (samples and midpoints).
-const GRID: usize = 2 * SAMPLES;
+/// Intervals of the switch locator's grid (its samples).
+const GRID: usize = SAMPLES;
 /// Kernel sets kept.
 const KERNEL_SETS: usize = 48;
 /// Step sizes are powers of `2^(1 / LADDER)`.
@@ -550,11 +606,12 @@ impl ForceCollocation {
         let mut p = DVector::zeros(ns);
         let mut pd = DVector::zeros(ns);
         let mut law = vec![(0.0, 0.0, 0.0); ns];
-        let mut lu = None;
+        let mut lu = SmallLu::new(ns);
+        let mut residual = vec![0.0; ns];
         let mut converged = false;
         for _ in 0..NEWTON_ITERATIONS {
-            p.copy_from(&(&mp * &f));
-            pd.copy_from(&(&mv * &f));
+            mp.mul_to(&f, &mut p);
+            mv.mul_to(&f, &mut pd);
             for c in 0..nc {
                 for i in 0..s {
                     let row = c * s + i;
@@ -563,25 +620,31 @@ impl ForceCollocation {
                     law[row] = forces.force(c, p[row], pd[row]);
                 }
             }
-            let mut jac = DMatrix::identity(ns, ns);
-            let mut residual = DVector::zeros(ns);
             for row in 0..ns {
                 let (fl, dp, dpd) = law[row];
                 residual[row] = f[row] - fl;
                 for col in 0..ns {
-                    jac[(row, col)] -= dp * mp[(row, col)] + dpd * mv[(row, col)];
+                    lu.a[row * ns + col] = if row == col { 1.0 } else { 0.0 } - (dp * mp[(row, col)] + dpd * mv[(row, col)]);
                 }
             }
-            let factors = jac.lu();
-            let Some(delta) = factors.solve(&residual) else { return Err(NewtonFailure) };
-            if !delta.iter().all(|x| x.is_finite()) {
+            if !lu.factor() {
                 return Err(NewtonFailure);
             }
-            f -= &delta;
-            lu = Some(factors);
-            // The correction's effect on the contact coordinates.
-            let (dp, dv) = (&mp * &delta, &mv * &delta);
-            let small = (0..ns).all(|row| dp[row].abs() <= p_tol[row / s] && dv[row].abs() <= v_tol[row / s]);
+            lu.solve(&mut residual);
+            if !residual.iter().all(|x| x.is_finite()) {
+                return Err(NewtonFailure);
+            }
+            // The correction and its effect on the contact coordinates.
+            let mut small = true;
+            for row in 0..ns {
+                f[row] -= residual[row];
+                let (mut dp, mut dv) = (0.0, 0.0);
+                for col in 0..ns {
+                    dp += mp[(row, col)] * residual[col];
+                    dv += mv[(row, col)] * residual[col];
+                }
+                small &= dp.abs() <= p_tol[row / s] && dv.abs() <= v_tol[row / s];
+            }
             if small {
                 converged = true;
                 break;
@@ -590,10 +653,9 @@ impl ForceCollocation {
         if !converged {
             return Err(NewtonFailure);
         }
-        let lu = lu.expect("an iteration ran");
         // The converged nodes: coordinates, dissipated power.
-        p.copy_from(&(&mp * &f));
-        pd.copy_from(&(&mv * &f));
+        mp.mul_to(&f, &mut p);
+        mv.mul_to(&f, &mut pd);
         let mut force = Vec::with_capacity(nc);
         let mut dissipation = Vec::with_capacity(nc);
         let mut y1 = DVector::zeros(2 * n + 2 * nc);
@@ -663,7 +725,8 @@ impl ForceCollocation {
                 drive[row] = dp * x + dpd * v;
             }
         }
-        let feedback = lu.solve(&drive).unwrap_or_else(|| DVector::zeros(ns));
+        let mut feedback = drive.as_slice().to_vec();
+        lu.solve(&mut feedback);
         let mut error: f64 = 0.0;
         let mut coef = vec![0.0; mono];
         let mut fb = vec![0.0; s];

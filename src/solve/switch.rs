@@ -26,9 +26,9 @@
 //! the rate would be quadratic and these points would find every minimum;
 //! a miss needs two extrema within about a sixteenth of a step, a
 //! reversal faster than the error control lets the polynomial represent.
-//! An interval whose ends both lie higher above zero than twice the
-//! largest sampled rate times its length is not searched: a dip there
-//! needs a rate beyond twice any sampled one.
+//! An interval whose ends both lie higher above zero than four times the
+//! larger rate at its ends times its length is not searched: a dip there
+//! needs a rate beyond four times those.
 //! Functions without a rate (forces) have no such search: a force that
 //! reaches zero and turns positive again within one sample interval is
 //! not seen (the laws clamp their force at zero, so the motion stays
@@ -37,21 +37,11 @@
 /// Samples of the watched functions per accepted step.
 pub const SAMPLES: usize = 8;
 
-/// The points of `[t0, t1]` where [`first_switch`] evaluates every
-/// function (`t0`, then each sample interval's midpoint and end), in
-/// order, with the very expressions it uses: a dense output may prepare
-/// its states there.
+/// The samples of `[t0, t1]` where [`first_switch`] evaluates every
+/// function (`t0` first), with the very expressions it uses: a dense
+/// output may prepare its states there.
 pub fn grid(t0: f64, t1: f64) -> Vec<f64> {
-    let mut out = Vec::with_capacity(2 * SAMPLES + 1);
-    out.push(t0);
-    let mut previous = t0;
-    for k in 1..=SAMPLES {
-        let s = sample(t0, t1, k);
-        out.push(0.5 * (previous + s));
-        out.push(s);
-        previous = s;
-    }
-    out
+    std::iter::once(t0).chain((1..=SAMPLES).map(|k| sample(t0, t1, k))).collect()
 }
 
 /// Sample `k` of `[t0, t1]` (`k = SAMPLES` is `t1`).
@@ -196,14 +186,14 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 fn negative_minimum(watch: &impl DenseWatch, i: usize, a: f64, b: f64) -> Option<f64> {
     let rate = |t: f64| watch.rate(i, t);
     let (da, db) = (rate(a)?, rate(b)?);
-    let m = 0.5 * (a + b);
-    let dm = rate(m)?;
-    // Both ends higher above zero than the sampled rates could take the
-    // function down in the interval twice over: no dip to look for.
-    let fastest = da.abs().max(db.abs()).max(dm.abs());
-    if watch.value(i, a).min(watch.value(i, b)) > 2.0 * fastest * (b - a) {
+    // Both ends higher above zero than the rates there could take the
+    // function down in the interval four times over: no dip to look for.
+    let fastest = da.abs().max(db.abs());
+    if watch.value(i, a).min(watch.value(i, b)) > 4.0 * fastest * (b - a) {
         return None;
     }
+    let m = 0.5 * (a + b);
+    let dm = rate(m)?;
     let mut points = vec![(a, da), (m, dm), (b, db)];
     // Parabola through the three: d(u) = dm + (db - da)/2 u + (db - 2 dm + da)/2 u^2, u in [-1, 1].
     let curvature = 0.5 * (db - 2.0 * dm + da);
