@@ -17,7 +17,7 @@ pub enum SimError {
     /// The initial state puts a point deeper into a compliant surface than
     /// a run may start (`limit`: the depth whose stored energy is the
     /// kinetic energy at the speed limit); `field` names what to change.
-    InitialPenetration { penetration: f64, limit: f64, field: &'static str },
+    InitialPenetration { point: String, penetration: f64, limit: f64, field: &'static str },
     /// More events than allowed inside one advance.
     TooManyEvents { time: f64, count: u64 },
     /// More work than allowed inside one advance (event-search points,
@@ -55,11 +55,11 @@ impl fmt::Display for SimError {
                 if *side > 0.0 { "<=" } else { ">=" },
                 fields.join(", ")
             ),
-            SimError::InitialPenetration { penetration, limit, field } => write!(
+            SimError::InitialPenetration { point, penetration, limit, field } => write!(
                 f,
-                "the initial state ({field}) puts the tip {penetration:e} m into the surface, deeper than a run may \
-                 start ({limit:e} m: the depth whose stored energy 2/5 K gamma^2.5 equals the beam's kinetic energy at the \
-                 speed limit); start with the tip outside the surface or on it"
+                "the initial state ({field}) puts {point} {penetration:e} m into the surface, deeper than a run may \
+                 start ({limit:e} m: the depth whose stored energy 2/5 K gamma^2.5 equals the kinetic energy of the \
+                 point's effective mass at the speed limit); start with {point} outside the surface, on it, or less deep"
             ),
             SimError::TooManyEvents { time, count } => write!(
                 f,

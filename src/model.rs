@@ -46,6 +46,10 @@ pub struct Model {
     pub event_tolerance: f64,
     /// Relative tolerance of integrated (nonlinear) phases.
     pub integration_tolerance: f64,
+    /// The fastest motion the scene's ranges admit (the interface's
+    /// velocity limit): no state may start deeper inside a nonlinear stop
+    /// than a point that fast reaches.
+    pub speed_limit: f64,
     pub max_events_per_step: u64,
     /// Event-search points allowed within one call to advance (events included).
     pub max_probes_per_step: u64,
@@ -274,6 +278,7 @@ impl Model {
             initial,
             event_tolerance: scene.solver.event_tolerance,
             integration_tolerance: scene.solver.integration_tolerance,
+            speed_limit: crate::interface::Limits::of(scene).velocity_range().max,
             max_events_per_step: scene.solver.max_events_per_step,
             max_probes_per_step: scene.solver.max_probes_per_step.unwrap_or_else(|| default_probe_budget(n)),
             energy_balance: scene.outputs.energy_balance,

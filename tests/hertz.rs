@@ -304,3 +304,53 @@ fn a_state_saved_after_a_discarded_step_restores() {
     }
     assert_eq!(sim.state().current, restored.state().current);
 }
+
+/// The extreme start (HertzStop with q0[2] = -399, q0[7] = 18.95,
+/// qd0[9] = 52491.2, qd0[19] = -52491.2: the tip 836 m inside the stop) is
+/// refused at the start, naming the field; starts inside the limit, with
+/// speeds up to the interface's limit, run.
+#[test]
+fn extreme_starts_run_or_are_refused_with_the_reason() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/hertz_stop.json")).unwrap();
+    let base = Scene::from_json(&text).unwrap();
+    let start = |q: &[(usize, f64)], qd: &[(usize, f64)]| {
+        let mut scene = base.clone();
+        let n = scene.n_modes();
+        scene.initial.q = vec![0.0; n];
+        scene.initial.qd = vec![0.0; n];
+        for &(j, v) in q {
+            scene.initial.q[j] = v;
+        }
+        for &(j, v) in qd {
+            scene.initial.qd[j] = v;
+        }
+        Simulation::new(Model::build(&scene).unwrap(), 0.0)
+    };
+    let refused = start(&[(1, -399.0), (6, 18.95)], &[(8, 52491.2), (18, -52491.2)]).err().expect("refused");
+    let message = refused.to_string();
+    assert!(message.contains("initial.q") && message.contains("deeper than a run may start"), "{message}");
+    // Pseudo-random starts (a fixed linear congruential sequence): small
+    // displacements, speeds up to the limit.
+    let mut seed = 12345u64;
+    let mut next = || {
+        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let limit = Model::build(&base).unwrap().speed_limit;
+    let mut ran = 0;
+    for case in 0..12 {
+        let q: Vec<(usize, f64)> = (0..3).map(|_| ((next() * 20.0) as usize, (2.0 * next() - 1.0) * 10f64.powf(-6.0 + 5.0 * next()))).collect();
+        let qd: Vec<(usize, f64)> = (0..3).map(|_| ((next() * 20.0) as usize, (2.0 * next() - 1.0) * limit * 10f64.powf(-6.0 * next()))).collect();
+        match start(&q, &qd) {
+            Ok(mut sim) => {
+                if let Err(e) = sim.advance_to(2e-3) {
+                    panic!("case {case} (q {q:?}, qd {qd:?}): {e}");
+                }
+                ran += 1;
+                eprintln!("case {case}: {} events", sim.stats().events);
+            }
+            Err(e) => assert!(e.to_string().contains("deeper than a run may start"), "case {case}: {e}"),
+        }
+    }
+    assert!(ran >= 8, "{ran} of 12 starts ran");
+}

@@ -122,6 +122,17 @@ impl Simulation {
                 });
             }
             let contact = s.law.initial_contact(s.geometry.penetration(&initial.q), s.geometry.penetration_rate(&initial.qd));
+            if s.law.term(Contact::Pressed) == crate::contact::PhaseTerm::Nonlinear && s.geometry.penetration(&initial.q) > 0.0 {
+                // No deeper than a point of the stop's effective mass
+                // arriving at the speed limit reaches (as the rotating
+                // beam's start): beyond, the law's force and damping leave
+                // every scale the run can resolve.
+                let penetration = s.geometry.penetration(&initial.q);
+                let limit = s.law.depth(model.speed_limit, s.geometry.w.dot(&s.geometry.w));
+                if penetration > limit {
+                    return Err(SimError::InitialPenetration { point: format!("the point of stop '{}'", s.name), penetration, limit, field: "initial.q" });
+                }
+            }
             stops.push(StopState {
                 contact,
                 departing: [false; 2],
