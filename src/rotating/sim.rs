@@ -31,7 +31,7 @@
 
 use std::sync::Arc;
 
-use nalgebra::{Cholesky, DVector};
+use nalgebra::DVector;
 
 use super::events::StepCurve;
 use super::model::RotatingModel;
@@ -236,7 +236,7 @@ impl RotatingSimulation {
                 let c = self.phase.contact_point(&z, &zd);
                 let g = m.beam.contact_generalized_force(&z, &s.plane, 1.0);
                 let inv_mass = match m.prescribed() {
-                    None => Cholesky::new(m.beam.mass_matrix(&z)).map(|ch| g.dot(&ch.solve(&g))),
+                    None => m.beam.solve_mass_vector(&z, &g).ok().map(|x| g.dot(&x)),
                     Some(_) => {
                         let gb = g.rows(1, n).into_owned();
                         Some(gb.dot(&m.m_chol.solve(&gb)))

@@ -16,7 +16,7 @@
 
 use std::sync::Arc;
 
-use nalgebra::{Cholesky, DMatrix, DVector};
+use nalgebra::{DMatrix, DVector};
 
 use super::model::RotatingModel;
 use crate::contact::Contact;
@@ -218,15 +218,14 @@ impl Phase {
                 // J^-1 (dQ_c - dJ/dz (z''_full - z''_free)); only J_00 depends on B.
                 let mut a = beam.acceleration_jacobian(&z, &zd, self.torque)?;
                 if let Some(dq) = dqc {
-                    let chol = Cholesky::new(beam.mass_matrix(&z)).ok_or("J(z) is not positive definite")?;
                     let qc = beam.contact_generalized_force(&z, &model.surface.as_ref().expect("a surface").plane, c.force);
-                    let delta = chol.solve(&qc);
+                    let delta = beam.solve_mass_vector(&z, &qc)?;
                     let mdb = &model.m_minus_d * z.rows(1, n);
                     let mut extra = dq;
                     for k in 0..n {
                         extra[(0, 1 + k)] -= 2.0 * mdb[k] * delta[0];
                     }
-                    a += chol.solve(&extra);
+                    a += beam.solve_mass(&z, &extra)?;
                 }
                 for i in 0..m {
                     jac[(i, m + i)] = 1.0;

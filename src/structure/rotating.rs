@@ -205,6 +205,11 @@ pub struct RotatingBeam {
     s_geo: DMatrix<f64>,
     c_tip: DMatrix<f64>,
     m_chol: Cholesky<f64, Dyn>,
+    /// `M^-1 Gamma` and `Gamma . M^-1 Gamma`: `J(z)` is `M` bordered by the
+    /// hub's row and column, and only its corner `J_00` moves, so `J^-1`
+    /// is the Schur complement of the hub (O(N^2) with `M` factored once).
+    m_inv_gamma: DVector<f64>,
+    gamma_m_inv_gamma: f64,
 }
 
 impl RotatingBeam {
@@ -253,7 +258,9 @@ impl RotatingBeam {
             Order::Zeroth => (m.clone(), DMatrix::zeros(n, n), DMatrix::zeros(n, n)),
         };
         let m_chol = Cholesky::new(m.clone()).ok_or("rotating beam: modal mass matrix not positive definite")?;
-        Ok(RotatingBeam { params, hat, m, k, gamma, sigma, d, s, c_l, w, j_b, s_1, damping, m_minus_d, s_geo, c_tip, m_chol })
+        let m_inv_gamma = m_chol.solve(&gamma);
+        let gamma_m_inv_gamma = gamma.dot(&m_inv_gamma);
+        Ok(RotatingBeam { params, hat, m, k, gamma, sigma, d, s, c_l, w, j_b, s_1, damping, m_minus_d, s_geo, c_tip, m_chol, m_inv_gamma, gamma_m_inv_gamma })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -287,6 +294,48 @@ impl RotatingBeam {
         j
     }
 
+    /// `J(z)^-1 R` column by column, by the Schur complement of the hub:
+    /// `theta = (r_0 - a . r_B) / (J_00 - Gamma . a)`, `B = M^-1 r_B - a
+    /// theta` with `a = M^-1 Gamma`; an error when `J` is not positive
+    /// definite (the complement not positive: `M` is).
+    pub fn solve_mass(&self, z: &DVector<f64>, r: &DMatrix<f64>) -> Result<DMatrix<f64>, String> {
+        let n = self.n_modes();
+        self.check(z);
+        let b = z.rows(1, n);
+        let j00 = self.params.hub_inertia + self.j_b + b.dot(&(&self.m_minus_d * b));
+        let schur = j00 - self.gamma_m_inv_gamma;
+        if !(schur > 0.0) {
+            return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
+        }
+        let mut out = self.m_chol.solve(&r.rows(1, n).into_owned());
+        let mut top = r.row(0).into_owned();
+        for col in 0..r.ncols() {
+            let theta = (r[(0, col)] - self.m_inv_gamma.dot(&r.view((1, col), (n, 1)))) / schur;
+            top[col] = theta;
+            out.column_mut(col).axpy(-theta, &self.m_inv_gamma, 1.0);
+        }
+        Ok(DMatrix::from_fn(n + 1, r.ncols(), |i, j| if i == 0 { top[j] } else { out[(i - 1, j)] }))
+    }
+
+    /// [`Self::solve_mass`] for one right-hand side.
+    pub fn solve_mass_vector(&self, z: &DVector<f64>, r: &DVector<f64>) -> Result<DVector<f64>, String> {
+        let n = self.n_modes();
+        self.check(z);
+        let b = z.rows(1, n);
+        let j00 = self.params.hub_inertia + self.j_b + b.dot(&(&self.m_minus_d * b));
+        let schur = j00 - self.gamma_m_inv_gamma;
+        if !(schur > 0.0) {
+            return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
+        }
+        let rb = r.rows(1, n);
+        let theta = (r[0] - self.m_inv_gamma.dot(&rb)) / schur;
+        let mut out = DVector::zeros(n + 1);
+        out[0] = theta;
+        let bb = self.m_chol.solve(&rb.into_owned()) - &self.m_inv_gamma * theta;
+        out.rows_mut(1, n).copy_from(&bb);
+        Ok(out)
+    }
+
     /// `Q(z, z')` for the hub torque `torque`, with modal damping, without contact.
     pub fn generalized_forces(&self, z: &DVector<f64>, zd: &DVector<f64>, torque: f64) -> DVector<f64> {
         let n = self.n_modes();
@@ -303,7 +352,8 @@ impl RotatingBeam {
     }
 
     /// Solves `J z'' = Q + q_extra` (e.g. `q_extra` = a contact force) by
-    /// Cholesky; an error if `J` is not positive definite (see the module doc).
+    /// [`Self::solve_mass_vector`]; an error if `J` is not positive definite
+    /// (see the module doc).
     pub fn accelerations(
         &self,
         z: &DVector<f64>,
@@ -316,9 +366,7 @@ impl RotatingBeam {
         if let Some(e) = q_extra {
             q += e;
         }
-        let chol = Cholesky::new(self.mass_matrix(z))
-            .ok_or_else(|| "rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string())?;
-        zdd.copy_from(&chol.solve(&q));
+        zdd.copy_from(&self.solve_mass_vector(z, &q)?);
         Ok(())
     }
 
@@ -330,9 +378,7 @@ impl RotatingBeam {
         let (b, bd) = (self.b(z), self.b(zd));
         let (thd, g) = (zd[0], self.params.gravity);
         let (sn, cs) = z[0].sin_cos();
-        // One factorisation of J serves z'' and the Jacobian.
-        let chol = Cholesky::new(self.mass_matrix(z)).ok_or("rotating beam: J(z) is not positive definite")?;
-        let zdd = chol.solve(&self.generalized_forces(z, zd, torque));
+        let zdd = self.solve_mass_vector(z, &self.generalized_forces(z, zd, torque))?;
         let mdb = &self.m_minus_d * &b;
         let mdbd = &self.m_minus_d * &bd;
         let sb = &self.s_geo * &b;
@@ -349,7 +395,7 @@ impl RotatingBeam {
         dq.view_mut((1, 1), (n, n)).copy_from(&db_db);
         dq.view_mut((1, n + 1), (n, 1)).copy_from(&(&mdb * (2.0 * thd)));
         dq.view_mut((1, n + 2), (n, n)).copy_from(&(-&self.damping));
-        Ok(chol.solve(&dq))
+        self.solve_mass(z, &dq)
     }
 
     /// Prescribed hub motion (`z[0] = theta`, `zd[0] = theta'` and
@@ -592,6 +638,38 @@ mod tests {
                 v += wt * (0.5 * p.bending_stiffness * curv * curv + p.mass_per_length * p.gravity * ((r + u) * th.sin() + vv * th.cos()));
             }
             t - v
+        }
+    }
+
+    #[test]
+    fn the_hub_schur_complement_solves_as_a_dense_cholesky() {
+        let mut rng = Lcg(11);
+        let p = RotatingBeamParams {
+            length: 1.3,
+            mass_per_length: 0.9,
+            bending_stiffness: 40.0,
+            hub_inertia: 0.7,
+            hub_radius: 0.25,
+            gravity: 9.81,
+            modal_damping: vec![],
+            n_modes: 5,
+            order: Order::First,
+        };
+        let beam = RotatingBeam::new(p).unwrap();
+        for _ in 0..20 {
+            let z = DVector::from_fn(6, |i, _| if i == 0 { 3.0 } else { 0.005 } * (2.0 * rng.next() - 1.0));
+            let r = DMatrix::from_fn(6, 3, |_, _| 2.0 * rng.next() - 1.0);
+            let dense = Cholesky::new(beam.mass_matrix(&z)).unwrap().solve(&r);
+            let schur = beam.solve_mass(&z, &r).unwrap();
+            assert!((&dense - &schur).amax() <= 1e-12 * dense.amax(), "{dense} vs {schur}");
+            let v = beam.solve_mass_vector(&z, &r.column(1).into_owned()).unwrap();
+            assert!((&v - dense.column(1)).amax() <= 1e-12 * dense.amax());
+        }
+        // Both refuse the same states (J not positive definite).
+        for _ in 0..200 {
+            let z = DVector::from_fn(6, |i, _| if i == 0 { 3.0 } else { 0.2 } * (2.0 * rng.next() - 1.0));
+            let r = DMatrix::from_fn(6, 1, |_, _| 1.0);
+            assert_eq!(Cholesky::new(beam.mass_matrix(&z)).is_some(), beam.solve_mass(&z, &r).is_ok(), "z = {z}");
         }
     }
 
