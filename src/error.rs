@@ -16,8 +16,8 @@ pub enum SimError {
     Penetration { stop: String, displacement: f64, limit: f64, side: f64, fields: Vec<String> },
     /// The initial state puts a point deeper into a compliant surface than
     /// a run may start (`limit`: the depth whose stored energy is the
-    /// kinetic energy at the speed limit); `field` names what to change.
-    InitialPenetration { point: String, penetration: f64, limit: f64, field: &'static str },
+    /// kinetic energy at the speed limit); `fields` name what to change.
+    InitialPenetration { point: String, penetration: f64, limit: f64, fields: Vec<String> },
     /// More events than allowed inside one advance.
     TooManyEvents { time: f64, count: u64 },
     /// More work than allowed inside one advance (event-search points,
@@ -55,11 +55,12 @@ impl fmt::Display for SimError {
                 if *side > 0.0 { "<=" } else { ">=" },
                 fields.join(", ")
             ),
-            SimError::InitialPenetration { point, penetration, limit, field } => write!(
+            SimError::InitialPenetration { point, penetration, limit, fields } => write!(
                 f,
-                "the initial state ({field}) puts {point} {penetration:e} m into the surface, deeper than a run may \
+                "the initial state ({}) puts {point} {penetration:e} m into the surface, deeper than a run may \
                  start ({limit:e} m: the depth whose stored energy 2/5 K gamma^2.5 equals the kinetic energy of the \
-                 point's effective mass at the speed limit); start with {point} outside the surface, on it, or less deep"
+                 point's effective mass at the speed limit); start with {point} outside the surface, on it, or less deep",
+                fields.join(", ")
             ),
             SimError::TooManyEvents { time, count } => write!(
                 f,

@@ -204,7 +204,7 @@ impl RotatingSimulation {
             let speed = model.spec.speed_range().max;
             let limit = s.law.depth(speed, 1.0 / model.spec.beam_inertia());
             if c.penetration > limit {
-                return Err(SimError::InitialPenetration { point: "the tip".into(), penetration: c.penetration, limit, field: "initial.theta" });
+                return Err(SimError::InitialPenetration { point: "the tip".into(), penetration: c.penetration, limit, fields: vec!["initial.theta".into()] });
             }
             if c.penetration > 0.0 || (c.penetration == 0.0 && c.rate > 0.0) {
                 sim.phase.onset_speed = c.rate.max(0.0);

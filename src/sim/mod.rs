@@ -130,7 +130,9 @@ impl Simulation {
                 let penetration = s.geometry.penetration(&initial.q);
                 let limit = s.law.depth(model.speed_limit, s.geometry.w.dot(&s.geometry.w));
                 if penetration > limit {
-                    return Err(SimError::InitialPenetration { point: format!("the point of stop '{}'", s.name), penetration, limit, field: "initial.q" });
+                    let mut fields = vec![format!("stops[{i}].gap")];
+                    fields.extend((0..model.n_modes()).filter(|&j| initial.q[j] * s.geometry.w[j] != 0.0).map(|j| format!("initial.q[{j}]")));
+                    return Err(SimError::InitialPenetration { point: format!("the point of stop '{}'", s.name), penetration, limit, fields });
                 }
             }
             stops.push(StopState {
