@@ -300,13 +300,7 @@ impl RotatingBeam {
     /// definite (the complement not positive: `M` is).
     pub fn solve_mass(&self, z: &DVector<f64>, r: &DMatrix<f64>) -> Result<DMatrix<f64>, String> {
         let n = self.n_modes();
-        self.check(z);
-        let b = z.rows(1, n);
-        let j00 = self.params.hub_inertia + self.j_b + b.dot(&(&self.m_minus_d * b));
-        let schur = j00 - self.gamma_m_inv_gamma;
-        if !(schur > 0.0) {
-            return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
-        }
+        let schur = self.hub_schur_complement(z)?;
         let mut out = self.m_chol.solve(&r.rows(1, n).into_owned());
         let mut top = r.row(0).into_owned();
         for col in 0..r.ncols() {
@@ -317,16 +311,23 @@ impl RotatingBeam {
         Ok(DMatrix::from_fn(n + 1, r.ncols(), |i, j| if i == 0 { top[j] } else { out[(i - 1, j)] }))
     }
 
+    /// `J_00(z) - Gamma . M^-1 Gamma`, positive exactly when `J(z)` is
+    /// positive definite (`M` is).
+    fn hub_schur_complement(&self, z: &DVector<f64>) -> Result<f64, String> {
+        self.check(z);
+        let b = z.rows(1, self.n_modes());
+        let schur = self.params.hub_inertia + self.j_b + b.dot(&(&self.m_minus_d * b)) - self.gamma_m_inv_gamma;
+        if schur > 0.0 {
+            Ok(schur)
+        } else {
+            Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string())
+        }
+    }
+
     /// [`Self::solve_mass`] for one right-hand side.
     pub fn solve_mass_vector(&self, z: &DVector<f64>, r: &DVector<f64>) -> Result<DVector<f64>, String> {
         let n = self.n_modes();
-        self.check(z);
-        let b = z.rows(1, n);
-        let j00 = self.params.hub_inertia + self.j_b + b.dot(&(&self.m_minus_d * b));
-        let schur = j00 - self.gamma_m_inv_gamma;
-        if !(schur > 0.0) {
-            return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
-        }
+        let schur = self.hub_schur_complement(z)?;
         let rb = r.rows(1, n);
         let theta = (r[0] - self.m_inv_gamma.dot(&rb)) / schur;
         let mut out = DVector::zeros(n + 1);
@@ -641,10 +642,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_hub_schur_complement_solves_as_a_dense_cholesky() {
-        let mut rng = Lcg(11);
-        let p = RotatingBeamParams {
+    /// A small undamped beam on a hub, under gravity.
+    fn test_params(n_modes: usize, order: Order) -> RotatingBeamParams {
+        RotatingBeamParams {
             length: 1.3,
             mass_per_length: 0.9,
             bending_stiffness: 40.0,
@@ -652,10 +652,15 @@ mod tests {
             hub_radius: 0.25,
             gravity: 9.81,
             modal_damping: vec![],
-            n_modes: 5,
-            order: Order::First,
-        };
-        let beam = RotatingBeam::new(p).unwrap();
+            n_modes,
+            order,
+        }
+    }
+
+    #[test]
+    fn the_hub_schur_complement_solves_as_a_dense_cholesky() {
+        let mut rng = Lcg(11);
+        let beam = RotatingBeam::new(test_params(5, Order::First)).unwrap();
         for _ in 0..20 {
             let z = DVector::from_fn(6, |i, _| if i == 0 { 3.0 } else { 0.005 } * (2.0 * rng.next() - 1.0));
             let r = DMatrix::from_fn(6, 3, |_, _| 2.0 * rng.next() - 1.0);
@@ -677,17 +682,7 @@ mod tests {
     fn mass_matrix_and_forces_follow_from_the_lagrangian() {
         let mut rng = Lcg(7);
         for order in [Order::First, Order::Zeroth] {
-            let p = RotatingBeamParams {
-                length: 1.3,
-                mass_per_length: 0.9,
-                bending_stiffness: 40.0,
-                hub_inertia: 0.7,
-                hub_radius: 0.25,
-                gravity: 9.81,
-                modal_damping: vec![],
-                n_modes: 4,
-                order,
-            };
+            let p = test_params(4, order);
             let beam = RotatingBeam::new(p.clone()).unwrap();
             let lag = Lagrangian::new(&p);
             let m = 5;
