@@ -57,7 +57,8 @@
 //! from one untimed run of each.
 //!
 //! `cargo run --release --example hertz_peer -- --csv PATH [--dump PATH.json]
-//! [--stiffness-csv PATH] [--reps N] [--reference dop853cap14|dop853cap|beamstop]`
+//! [--stiffness-csv PATH] [--reps N] [--reference dop853cap14|dop853cap|beamstop]
+//! [--modes N]` (`--modes`: the scene with N modes, e.g. 32)
 //!
 //! `--dump` writes the modal system, the tolerance scales and the reference
 //! (grid and onsets) as JSON, for the scipy runs of `python/beamstop_tools/report/hertz.py`.
@@ -365,9 +366,17 @@ fn match_onsets(reference: &[f64], run: &[f64]) -> (usize, usize, f64) {
     (missed, extra, dt)
 }
 
+/// `--modes N`: the scene with N modes instead of its own 20.
+static MODES: std::sync::OnceLock<Option<usize>> = std::sync::OnceLock::new();
+
 fn scene_with(tol: f64, stiffness: Option<f64>) -> Model {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/hertz_stop.json");
     let mut scene = Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
+    if let Some(n) = MODES.get().copied().flatten() {
+        if let beamstop::scene::StructureSpec::Beam { modes, .. } = &mut scene.structure {
+            *modes = n;
+        }
+    }
     scene.solver.integration_tolerance = tol;
     // One call may cover a whole contact phase at a tight tolerance.
     scene.solver.max_probes_per_step = Some(u64::MAX);
@@ -408,6 +417,7 @@ fn main() {
     let stiffness_csv = arg("--stiffness-csv");
     let reps: usize = arg("--reps").map_or(3, |r| r.parse().expect("--reps N"));
     let reference_name = arg("--reference").unwrap_or_else(|| "dop853cap14".into());
+    MODES.set(arg("--modes").map(|n| n.parse().expect("--modes N"))).expect("set once");
 
     let (end_err, dense_err, _) = dop853::self_check();
     assert!(end_err < 1e-10 && dense_err < 1e-10, "DOP853 port is wrong");
