@@ -313,6 +313,8 @@ pub struct ForceCollocation {
 /// coordinate by less than this fraction of the tolerance.
 const NEWTON_FRACTION: f64 = 1e-3;
 const NEWTON_ITERATIONS: usize = 12;
+/// Ratio of successive pieces of a step onto a corner.
+const GRADING: f64 = 4.0;
 /// Dense states remembered per step: the switch locator's samples and
 /// midpoints.
 const MEMO: usize = 48;
@@ -394,13 +396,13 @@ impl ForceCollocation {
         // ends there as p^1.5 (a separation), the last, tol^(2/7) of the
         // interval long, carries the corner's error to the tolerance.
         let smallest = if corner { self.options.tol.powf(2.0 / 7.0) } else { 1.0 };
-        let mut piece = 0.75;
-        while piece * 0.25 > smallest && t1 - t > 0.0 {
-            let h_try = piece * (t1 - t0);
+        let mut remaining = 1.0;
+        while remaining / GRADING > smallest && t1 - t > 0.0 {
+            let h_try = remaining * (1.0 - 1.0 / GRADING) * (t1 - t0);
             let guess = self.guess(forces, t, &y, h_try);
             let a = self.attempt(forces, t, &y, h_try, &guess, false)?;
             (t, y) = (t + h_try, a.y1);
-            piece *= 0.25;
+            remaining /= GRADING;
         }
         let mut h = t1 - t;
         for _ in 0..1000 {
