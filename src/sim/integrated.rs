@@ -11,9 +11,11 @@
 //! no integrator history). Each accepted step's dense output (the exact
 //! motion under the step's force polynomials) goes to the switch locator
 //! ([`crate::solve::switch`]: samples, interior minima of the gaps and
-//! penetrations, bisection), and the state at a switch is recomputed by a
-//! collocation step of its own from the step's start (the method's full
-//! order at step ends, where the dense output has stage order).
+//! penetrations, regula falsi to an ulp), and the state at a switch is
+//! recomputed by collocation steps of its own from the step's start,
+//! shrinking toward it (the method's full order at step ends, where the
+//! dense output has stage order; a separation ends the force in a `p^1.5`
+//! corner); Newton on that state then carries the switch past its zero.
 
 use nalgebra::DVector;
 
