@@ -26,9 +26,11 @@
 //! the rate would be quadratic and these points would find every minimum;
 //! a miss needs two extrema within about a sixteenth of a step, a
 //! reversal faster than the error control lets the polynomial represent.
-//! An interval whose ends both lie higher above zero than four times the
-//! larger rate at its ends times its length is not searched: a dip there
-//! needs a rate beyond four times those.
+//! An interval is not searched when its ends both lie higher above zero
+//! than four times the larger rate at its ends times its length (a dip
+//! needs a rate beyond four times those), or when the cubic through the
+//! ends' values and rates stays above half the lower end (a dip needs the
+//! function to leave that cubic by more, within an eighth of a step).
 //! Functions without a rate (forces) have no such search: a force that
 //! reaches zero and turns positive again within one sample interval is
 //! not seen (the laws clamp their force at zero, so the motion stays
@@ -181,15 +183,45 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     }
 }
 
+/// The least value on `[0, h]` of the cubic with values `fa`, `fb` and
+/// slopes `da`, `db` at its ends.
+fn hermite_minimum(fa: f64, da: f64, fb: f64, db: f64, h: f64) -> f64 {
+    // p(u) = fa + h da u + c2 u^2 + c3 u^3, u in [0, 1].
+    let c2 = 3.0 * (fb - fa) - h * (2.0 * da + db);
+    let c3 = 2.0 * (fa - fb) + h * (da + db);
+    let p = |u: f64| fa + u * (h * da + u * (c2 + u * c3));
+    let mut least = fa.min(fb);
+    // p'(u) = h da + 2 c2 u + 3 c3 u^2.
+    let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, h * da);
+    // The roots without cancellation: q = -(b + sign(b) sqrt(disc)) / 2,
+    // then q / a and c / q (either may be missing).
+    let disc = qb * qb - 4.0 * qa * qc;
+    let roots: [f64; 2] = if disc < 0.0 {
+        [-1.0, -1.0]
+    } else {
+        let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+        [if qa != 0.0 { q / qa } else { -1.0 }, if q != 0.0 { qc / q } else { -1.0 }]
+    };
+    for u in roots {
+        if u > 0.0 && u < 1.0 {
+            least = least.min(p(u));
+        }
+    }
+    least
+}
+
 /// The first interior minimum of function `i` in `(a, b)` that is
 /// negative, by the sign changes of its rate (module doc).
 fn negative_minimum(watch: &impl DenseWatch, i: usize, a: f64, b: f64) -> Option<f64> {
     let rate = |t: f64| watch.rate(i, t);
     let (da, db) = (rate(a)?, rate(b)?);
     // Both ends higher above zero than the rates there could take the
-    // function down in the interval four times over: no dip to look for.
+    // function down in the interval four times over, or the cubic through
+    // the ends' values and rates staying above half the lower end: no dip
+    // to look for.
+    let (fa, fb) = (watch.value(i, a), watch.value(i, b));
     let fastest = da.abs().max(db.abs());
-    if watch.value(i, a).min(watch.value(i, b)) > 4.0 * fastest * (b - a) {
+    if fa.min(fb) > 4.0 * fastest * (b - a) || (fa.min(fb) > 0.0 && hermite_minimum(fa, da, fb, db, b - a) >= 0.5 * fa.min(fb)) {
         return None;
     }
     let m = 0.5 * (a + b);
@@ -241,6 +273,20 @@ mod tests {
         fn rate(&self, i: usize, t: f64) -> Option<f64> {
             self.0[i].1.map(|r| r(t))
         }
+    }
+
+    #[test]
+    fn the_hermite_minimum_is_the_cubic_s_least_value() {
+        // p(t) = (t - 0.6)^2 - 0.01 on [0, 1]: values and slopes at the ends.
+        let p = |t: f64| (t - 0.6) * (t - 0.6) - 0.01;
+        let d = |t: f64| 2.0 * (t - 0.6);
+        assert!((hermite_minimum(p(0.0), d(0.0), p(1.0), d(1.0), 1.0) + 0.01).abs() < 1e-15);
+        // Monotone: the lower end.
+        assert_eq!(hermite_minimum(1.0, 0.5, 2.0, 1.5, 1.0), 1.0);
+        // Scaled interval: t in [2, 2.5], p = (t - 2.3)^2.
+        let q = |t: f64| (t - 2.3) * (t - 2.3);
+        let dq = |t: f64| 2.0 * (t - 2.3);
+        assert!(hermite_minimum(q(2.0), dq(2.0), q(2.5), dq(2.5), 0.5).abs() < 1e-15);
     }
 
     #[test]
