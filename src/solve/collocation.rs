@@ -14,14 +14,23 @@
 //! (exponential collocation, HO10 sec. 2.3).
 //!
 //! **Error control.** The collocated force misses the law's force by the
-//! defect `d(t) = law(y(t)) - P(t)`, zero at the nodes; to leading order
-//! `d = D w_s(sigma)`, `w_s` the nodes' polynomial. `D` is read from the
-//! defect at both ends of the step (the larger), and the local error is
-//! the exact response of every mode to the load `D w_s`, with the
-//! contacts' linearised feedback through the Newton matrix. For modes that
-//! barely move over a step the response to `w_s` nearly vanishes (Gauss
-//! orthogonality: the method's order `2s` at step ends), for fast modes it
-//! does not: the estimate follows whichever holds.
+//! defect `d(t) = law(y(t)) - P(t)`, zero at the nodes; it is modelled as
+//! `w_s(sigma) (D0 (1 - sigma) + D1 sigma)`, `w_s` the nodes' polynomial,
+//! with `D0`, `D1` read from the defect at the step's two ends, and the
+//! local error is the exact response of every mode to that load, with the
+//! contacts' linearised feedback through the Newton matrix. Where the
+//! force is smooth, `D0 = D1` and the response to `w_s` nearly vanishes
+//! for modes that barely move over a step (Gauss orthogonality: order `2s`
+//! at step ends); fast modes and a changing `D` (an onset's `p^1.5`) are
+//! carried by the estimate. An onset starts with a step of `tol^(2/7)` of
+//! the contact's scale, and a state at a switch is reached by pieces
+//! shrinking toward it ([`ForceCollocation::single_step`]): a separation
+//! ends the force in a `p^1.5` corner no defect estimate sees.
+//!
+//! **Cost.** Step sizes come from a ladder of `2^(1/4)`, so that steps of
+//! one size share their kernels (the responses to the force monomials and
+//! the free kernels at the nodes, kept per size); the switch locator's
+//! samples are marched from one propagator per mode.
 //!
 //! The dense output is the exact motion under the step's polynomials; at
 //! an interior time it has stage order, so a state the outputs read is
