@@ -50,6 +50,8 @@ pub(super) struct IntegratedSegment {
     pub exact: Option<(f64, DVector<f64>)>,
     pub anchor_time: f64,
     pub anchor: DVector<f64>,
+    /// Room for one integrated state (the switch locator's samples).
+    buffer: std::cell::RefCell<DVector<f64>>,
 }
 
 impl IntegratedSegment {
@@ -152,7 +154,7 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn values(&self, t: f64, out: &mut [f64]) {
-        let mut y = DVector::zeros(self.phase.dim());
+        let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
         for (o, e) in out.iter_mut().zip(&self.evaluators) {
             *o = self.evaluate(e, &y);
@@ -160,13 +162,13 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn value(&self, i: usize, t: f64) -> f64 {
-        let mut y = DVector::zeros(self.phase.dim());
+        let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
         self.evaluate(&self.evaluators[i], &y)
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
-        let mut y = DVector::zeros(self.phase.dim());
+        let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
         self.rate_in(i, &y)
     }
@@ -256,7 +258,7 @@ impl Simulation {
         if let Some(super::Segment::Integrated(previous)) = &self.spare {
             solver.adopt_kernels(&previous.solver);
         }
-        Ok(IntegratedSegment { phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor })
+        Ok(IntegratedSegment { buffer: DVector::zeros(dim).into(), phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor })
     }
 
     /// Steps the integrated phase until its steps cover `t` (a restored

@@ -159,6 +159,7 @@ fn taylor_shift(p: &[f64], sigma: f64, ratio: f64, out: &mut [f64]) {
 
 /// A small dense LU with partial pivoting, in place (the Newton matrix
 /// of one step: 4 rows per contact).
+#[derive(Clone, Debug, Default)]
 struct SmallLu {
     n: usize,
     a: Vec<f64>,
@@ -166,8 +167,11 @@ struct SmallLu {
 }
 
 impl SmallLu {
-    fn new(n: usize) -> Self {
-        SmallLu { n, a: vec![0.0; n * n], pivots: vec![0; n] }
+    /// Room for an `n x n` matrix.
+    fn resize(&mut self, n: usize) {
+        self.n = n;
+        self.a.resize(n * n, 0.0);
+        self.pivots.resize(n, 0);
     }
 
     /// Factors `a`; `false` when singular.
@@ -285,6 +289,74 @@ impl std::fmt::Display for CollocationError {
     }
 }
 
+/// The contact coordinates' responses for one step size.
+#[derive(Debug)]
+struct Projected {
+    h: f64,
+    /// To the force monomials, at the nodes and the end:
+    /// `[((c * nc + e) * (s + 1) + i) * (s + 2) + m]` (position, rate).
+    sm: Vec<[f64; 2]>,
+    /// To the nodal forces, at the nodes: `[(c, i), (e, k)]`.
+    mp: DMatrix<f64>,
+    mv: DMatrix<f64>,
+}
+
+/// Working arrays of [`ForceCollocation::attempt`], kept between steps.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    pf: Vec<f64>,
+    pdf: Vec<f64>,
+    f: DVector<f64>,
+    p: DVector<f64>,
+    pd: DVector<f64>,
+    law: Vec<(f64, f64, f64)>,
+    lu: SmallLu,
+    residual: Vec<f64>,
+    defect: Vec<f64>,
+    drive: Vec<f64>,
+    fb: Vec<f64>,
+}
+
+/// Dense states by time, the oldest overwritten first; cleared without
+/// freeing (a step's worth of states is refilled every step).
+#[derive(Clone, Debug, Default)]
+struct Memo {
+    slots: Vec<(f64, DVector<f64>)>,
+    next: usize,
+}
+
+impl Memo {
+    fn clear(&mut self) {
+        self.slots.iter_mut().for_each(|s| s.0 = f64::NAN);
+        self.next = 0;
+    }
+
+    fn find(&self, t: f64) -> Option<&DVector<f64>> {
+        self.slots.iter().find(|(tm, _)| *tm == t).map(|(_, y)| y)
+    }
+
+    /// The storage for the state at `t` (every entry set by the caller).
+    fn slot(&mut self, t: f64, dim: usize) -> &mut DVector<f64> {
+        let k = self.next;
+        self.next = (k + 1) % MEMO;
+        if k == self.slots.len() {
+            self.slots.push((t, DVector::zeros(dim)));
+        }
+        let slot = &mut self.slots[k];
+        slot.0 = t;
+        if slot.1.len() != dim {
+            slot.1 = DVector::zeros(dim);
+        }
+        &mut slot.1
+    }
+}
+
+/// `v` as `len` zeros (no allocation once the size is known).
+fn reset(v: &mut Vec<f64>, len: usize) {
+    v.clear();
+    v.resize(len, 0.0);
+}
+
 /// Everything one attempted step computes.
 struct Attempt {
     y1: DVector<f64>,
@@ -309,10 +381,15 @@ pub struct ForceCollocation {
     last: Option<Step>,
     /// States the dense output gave in the last step, by time (the switch
     /// locator asks for values and rates at the same sample points).
-    memo: std::cell::RefCell<Vec<(f64, DVector<f64>)>>,
+    memo: std::cell::RefCell<Memo>,
     /// The kernels of the step sizes used lately (steps take sizes from a
     /// ladder, so that neighbouring steps share them).
     kernels: std::cell::RefCell<Vec<Arc<StepKernels>>>,
+    /// The contact responses of those sizes (this phase's contacts).
+    projections: std::cell::RefCell<Vec<Arc<Projected>>>,
+    scratch: std::cell::RefCell<Scratch>,
+    /// The largest `|d_j|` of each contact.
+    amax: Vec<f64>,
     /// Accepted and rejected steps.
     pub accepted: u64,
     pub rejected: u64,
@@ -342,7 +419,8 @@ impl ForceCollocation {
             }
         }
         let h = options.h_init.min(options.h_max);
-        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), kernels: Default::default(), accepted: 0, rejected: 0 }
+        let amax = contacts.iter().map(|c| c.d.amax()).collect();
+        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0 }
     }
 
     pub fn t(&self) -> f64 {
@@ -537,41 +615,18 @@ impl ForceCollocation {
         kernels
     }
 
-    /// The kernel sets of another stepper over the same structure (the
-    /// previous contact phase's): its step sizes recur.
-    pub fn adopt_kernels(&mut self, other: &ForceCollocation) {
-        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
-            *self.kernels.borrow_mut() = other.kernels.borrow().clone();
+    /// The contact coordinates' responses to the contacts' forces for the
+    /// step size of `kernels`, remembered for the sizes of the ladder.
+    fn projected_for(&self, kernels: &Arc<StepKernels>, cached: bool) -> Arc<Projected> {
+        let h = kernels.h;
+        if let Some(p) = self.projections.borrow().iter().find(|p| p.h == h) {
+            return p.clone();
         }
-    }
-
-    /// One step of size `h` (`cached`: a size of the ladder, whose kernels
-    /// are kept).
-    fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, guess: &[f64], cached: bool) -> Result<Attempt, NewtonFailure> {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
-        let start = ModalState { q: y0.rows(0, n).into_owned(), qd: y0.rows(n, n).into_owned() };
-        let free = FreeSegment::new(&self.dynamics, t0, &start);
-        // Points: the nodes, then the step's end.
-        let taus: Vec<f64> = self.scheme.c.iter().map(|c| c * h).chain(std::iter::once(h)).collect();
-        let kernels = self.kernels_for(h, cached);
-        let r = &kernels.responses;
-        // Free motion of the contact coordinates at the points.
-        let mut free_states = Vec::with_capacity(s + 1);
-        let mut pf = vec![0.0; nc * (s + 1)];
-        let mut pdf = vec![0.0; nc * (s + 1)];
-        for (i, tau) in taus.iter().enumerate() {
-            let mut st = ModalState::zeros(n);
-            free.state_with_kernels(&self.dynamics, t0 + tau, &kernels.free[i * n..(i + 1) * n], &mut st);
-            for c in 0..nc {
-                let d = &self.contacts[c].d;
-                pf[c * (s + 1) + i] = d.dot(&st.q) - self.contacts[c].gap;
-                pdf[c * (s + 1) + i] = d.dot(&st.qd);
-            }
-            free_states.push(st);
-        }
-        // Monomial responses of the contact coordinates: S[((c * nc + e) * (s + 1) + i) * mono + m].
         let mono = s + 2;
+        let r = &kernels.responses;
+        // Monomial responses of the contact coordinates: S[((c * nc + e) * (s + 1) + i) * mono + m].
         let mut sm = vec![[0.0; 2]; nc * nc * (s + 1) * mono];
         for c in 0..nc {
             for e in 0..nc {
@@ -609,20 +664,72 @@ impl ForceCollocation {
                 }
             }
         }
+        let projected = Arc::new(Projected { h, sm, mp, mv });
+        if cached {
+            let mut cache = self.projections.borrow_mut();
+            if cache.len() >= KERNEL_SETS {
+                cache.remove(0);
+            }
+            cache.push(projected.clone());
+        }
+        projected
+    }
+
+    /// The kernel sets of another stepper over the same structure (the
+    /// previous contact phase's): its step sizes recur.
+    pub fn adopt_kernels(&mut self, other: &ForceCollocation) {
+        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
+            *self.kernels.borrow_mut() = other.kernels.borrow().clone();
+        }
+    }
+
+    /// One step of size `h` (`cached`: a size of the ladder, whose kernels
+    /// are kept).
+    fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, guess: &[f64], cached: bool) -> Result<Attempt, NewtonFailure> {
+        let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
+        let ns = nc * s;
+        let start = ModalState { q: y0.rows(0, n).into_owned(), qd: y0.rows(n, n).into_owned() };
+        let free = FreeSegment::new(&self.dynamics, t0, &start);
+        // Points: the nodes, then the step's end.
+        let kernels = self.kernels_for(h, cached);
+        let r = &kernels.responses;
+        let mut guard = self.scratch.borrow_mut();
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb } = &mut *guard;
+        // Free motion of the contact coordinates at the points; the
+        // state at the last (the step's end) is kept.
+        let mut end = ModalState::zeros(n);
+        reset(pf, nc * (s + 1));
+        reset(pdf, nc * (s + 1));
+        for i in 0..=s {
+            let tau = if i < s { self.scheme.c[i] * h } else { h };
+            free.state_with_kernels(&self.dynamics, t0 + tau, &kernels.free[i * n..(i + 1) * n], &mut end);
+            for c in 0..nc {
+                let d = &self.contacts[c].d;
+                pf[c * (s + 1) + i] = d.dot(&end.q) - self.contacts[c].gap;
+                pdf[c * (s + 1) + i] = d.dot(&end.qd);
+            }
+        }
+        let mono = s + 2;
+        let projected = self.projected_for(&kernels, cached);
+        let (sm, mp, mv) = (&projected.sm, &projected.mp, &projected.mv);
         // Newton on the nodal forces.
         let tol = self.options.tol;
-        let p_tol: Vec<f64> = self.contacts.iter().map(|ct| NEWTON_FRACTION * tol * self.options.q_scale * ct.d.amax()).collect();
-        let v_tol: Vec<f64> = self.contacts.iter().map(|ct| NEWTON_FRACTION * tol * self.options.v_scale * ct.d.amax()).collect();
-        let mut f = DVector::from_column_slice(guess);
-        let mut p = DVector::zeros(ns);
-        let mut pd = DVector::zeros(ns);
-        let mut law = vec![(0.0, 0.0, 0.0); ns];
-        let mut lu = SmallLu::new(ns);
-        let mut residual = vec![0.0; ns];
+        let p_tol = |c: usize| NEWTON_FRACTION * tol * self.options.q_scale * self.amax[c];
+        let v_tol = |c: usize| NEWTON_FRACTION * tol * self.options.v_scale * self.amax[c];
+        if f.len() != ns {
+            *f = DVector::zeros(ns);
+            *p = DVector::zeros(ns);
+            *pd = DVector::zeros(ns);
+        }
+        f.copy_from_slice(guess);
+        law.clear();
+        law.resize(ns, (0.0, 0.0, 0.0));
+        lu.resize(ns);
+        reset(residual, ns);
         let mut converged = false;
         for _ in 0..NEWTON_ITERATIONS {
-            mp.mul_to(&f, &mut p);
-            mv.mul_to(&f, &mut pd);
+            mp.mul_to(f, p);
+            mv.mul_to(f, pd);
             for c in 0..nc {
                 for i in 0..s {
                     let row = c * s + i;
@@ -641,7 +748,7 @@ impl ForceCollocation {
             if !lu.factor() {
                 return Err(NewtonFailure);
             }
-            lu.solve(&mut residual);
+            lu.solve(residual);
             if !residual.iter().all(|x| x.is_finite()) {
                 return Err(NewtonFailure);
             }
@@ -654,7 +761,7 @@ impl ForceCollocation {
                     dp += mp[(row, col)] * residual[col];
                     dv += mv[(row, col)] * residual[col];
                 }
-                small &= dp.abs() <= p_tol[row / s] && dv.abs() <= v_tol[row / s];
+                small &= dp.abs() <= p_tol(row / s) && dv.abs() <= v_tol(row / s);
             }
             if small {
                 converged = true;
@@ -665,8 +772,8 @@ impl ForceCollocation {
             return Err(NewtonFailure);
         }
         // The converged nodes: coordinates, dissipated power.
-        mp.mul_to(&f, &mut p);
-        mv.mul_to(&f, &mut pd);
+        mp.mul_to(f, p);
+        mv.mul_to(f, pd);
         let mut force = Vec::with_capacity(nc);
         let mut dissipation = Vec::with_capacity(nc);
         let mut y1 = DVector::zeros(2 * n + 2 * nc);
@@ -687,7 +794,6 @@ impl ForceCollocation {
             dissipation.push(beta);
         }
         // The end state: free motion plus every mode's response.
-        let end = &free_states[s];
         for j in 0..n {
             let (mut x, mut v) = (end.q[j], end.qd[j]);
             let base = (s * n + j) * mono;
@@ -708,25 +814,25 @@ impl ForceCollocation {
         // (an onset's `p^1.5`), whose response the estimate then carries.
         let w_end = horner(&self.scheme.node_poly, 1.0);
         let w_start = horner(&self.scheme.node_poly, 0.0);
-        let mut defect = vec![vec![0.0; mono]; nc];
+        reset(defect, nc * mono);
         for c in 0..nc {
             let (p1, pd1) = self.coordinate(c, &y1);
             let (p0, pd0) = self.coordinate(c, y0);
             let d1 = (forces.force(c, p1, pd1).0 - horner(&force[c], 1.0)) / w_end;
             let d0 = (forces.force(c, p0, pd0).0 - horner(&force[c], 0.0)) / w_start;
             for (m, w) in self.scheme.node_poly.iter().enumerate() {
-                defect[c][m] += d0 * w;
-                defect[c][m + 1] += (d1 - d0) * w;
+                defect[c * mono + m] += d0 * w;
+                defect[c * mono + m + 1] += (d1 - d0) * w;
             }
         }
         // The nodes' response to the defect, fed back through the contacts.
-        let mut drive = DVector::zeros(ns);
+        reset(drive, ns);
         for c in 0..nc {
             for i in 0..s {
                 let row = c * s + i;
                 let (dp, dpd) = (law[row].1, law[row].2);
                 let (mut x, mut v) = (0.0, 0.0);
-                for (e, poly) in defect.iter().enumerate() {
+                for (e, poly) in defect.chunks_exact(mono).enumerate() {
                     for (m, w) in poly.iter().enumerate() {
                         let smv = sm[((c * nc + e) * (s + 1) + i) * mono + m];
                         x += w * smv[0];
@@ -736,24 +842,19 @@ impl ForceCollocation {
                 drive[row] = dp * x + dpd * v;
             }
         }
-        let mut feedback = drive.as_slice().to_vec();
-        lu.solve(&mut feedback);
+        lu.solve(drive);
         let mut error: f64 = 0.0;
-        let mut coef = vec![0.0; mono];
-        let mut fb = vec![0.0; s];
-        let fb_monomials: Vec<Vec<f64>> = (0..nc)
-            .map(|c| {
-                let nodal: Vec<f64> = (0..s).map(|i| feedback[c * s + i]).collect();
-                self.scheme.monomials(&nodal, &mut fb);
-                fb.clone()
-            })
-            .collect();
+        let mut coef = [0.0; STAGES + 2];
+        reset(fb, ns);
+        for c in 0..nc {
+            self.scheme.monomials(&drive[c * s..(c + 1) * s], &mut fb[c * s..(c + 1) * s]);
+        }
         for j in 0..n {
             coef.iter_mut().for_each(|x| *x = 0.0);
             for c in 0..nc {
                 let dj = self.contacts[c].d[j];
                 for m in 0..mono {
-                    coef[m] -= dj * (defect[c][m] + if m < s { fb_monomials[c][m] } else { 0.0 });
+                    coef[m] -= dj * (defect[c * mono + m] + if m < s { fb[c * s + m] } else { 0.0 });
                 }
             }
             let base = (s * n + j) * mono;
@@ -783,16 +884,12 @@ impl ForceCollocation {
             out.copy_from(&self.y);
             return Some(());
         }
-        if let Some((_, y)) = self.memo.borrow().iter().find(|(tm, _)| *tm == t) {
+        if let Some(y) = self.memo.borrow().find(t) {
             out.copy_from(y);
             return Some(());
         }
         self.evaluate(l, t, out);
-        let mut memo = self.memo.borrow_mut();
-        if memo.len() >= MEMO {
-            memo.remove(0);
-        }
-        memo.push((t, out.clone()));
+        self.memo.borrow_mut().slot(t, out.len()).copy_from(out);
         Some(())
     }
 
@@ -840,11 +937,11 @@ impl ForceCollocation {
                     z[j] = next;
                 }
             }
-            if t == l.t0 || t == self.t || memo.iter().any(|(tm, _)| *tm == t) {
+            if t == l.t0 || t == self.t || memo.find(t).is_some() {
                 continue;
             }
             l.free.state_with_kernels(&self.dynamics, t, &kernels.grid_free[(k - 1) * n..k * n], &mut st);
-            let mut y = DVector::zeros(2 * n + 2 * nc);
+            let y = memo.slot(t, 2 * n + 2 * nc);
             for j in 0..n {
                 y[j] = st.q[j] + z[j][0];
                 y[n + j] = st.qd[j] + z[j][1];
@@ -854,10 +951,7 @@ impl ForceCollocation {
                 y[2 * n + c] = l.y0[2 * n + c] + l.h * integral(&l.force[c], sigma);
                 y[2 * n + nc + c] = l.y0[2 * n + nc + c] + l.h * integral(&l.dissipation[c], sigma);
             }
-            if memo.len() >= MEMO {
-                memo.remove(0);
-            }
-            memo.push((t, y));
+
         }
     }
 
