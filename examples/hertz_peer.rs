@@ -1,6 +1,6 @@
 //! Error against run time for the Hertz stop's contact phases: beamstop
 //! (closed-form free flight, Radau IIA contact phases) against the strongest
-//! compiled peer, DOP853 with dense output (`peer/dop853.rs`), integrated
+//! compiled peer, DOP853 with dense output (`src/solve/dop853.rs`), integrated
 //! phase by phase, on `scenes/hertz_stop.json` (20 modes, K = 1.088e10
 //! N/m^1.5, Lankarani-Nikravesh e = 0.8), 0.2 s from rest.
 //!
@@ -71,8 +71,6 @@
 
 #[path = "peer/brent.rs"]
 mod brent;
-#[path = "peer/dop853.rs"]
-mod dop853;
 
 use std::io::Write;
 use std::time::Instant;
@@ -81,7 +79,7 @@ use beamstop::contact::{Hertz, Law};
 use beamstop::solve::ModalForcing;
 use beamstop::{EventKind, Model, Scene, Simulation};
 use brent::brent;
-use dop853::{Dop853, Rhs};
+use beamstop::solve::dop853::{self, Dop853, Rhs};
 use nalgebra::DVector;
 
 const T_END: f64 = 0.2;

@@ -22,7 +22,7 @@
 //! - sticking: the free acceleration projected onto `w.q'' = 0`, reaction
 //!   `lambda = (w.(K q + D q') - w.f) / (w.w)` (VSM12 eq. 32), released
 //!   when lambda crosses zero upwards.
-//! Integrator: DOP853 (`peer/dop853.rs`, scipy's tableau and controller),
+//! Integrator: DOP853 (`src/solve/dop853.rs`, scipy's tableau and controller),
 //! compiled, no allocation per step. Events: after every accepted step the
 //! watched function (gap in free flight, `-lambda` while stuck) is sampled at
 //! the step's end (`samples=1`, as scipy's `solve_ivp` does) or also at 4
@@ -67,8 +67,6 @@
 //! sticks and releases, nothing timed).
 #[path = "peer/brent.rs"]
 mod brent;
-#[path = "peer/dop853.rs"]
-mod dop853;
 
 use std::f64::consts::PI;
 use std::io::Write;
@@ -78,7 +76,7 @@ use beamstop::contact::{Contact, Law};
 use beamstop::interface::ParamKey;
 use beamstop::{EventKind, Model, Scene, Simulation};
 use brent::brent;
-use dop853::{Dop853, Rhs};
+use beamstop::solve::dop853::{self, Dop853, Rhs};
 
 const INTERIOR: usize = 4;
 const MAX_EVENTS: usize = 100_000;

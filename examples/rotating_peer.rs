@@ -11,7 +11,7 @@
 //! switches on the collocation polynomial) at `solver.tolerance` 1e-4 ..
 //! 1e-12, one `advance_to(T_END)`, the events drained.
 //!
-//! **The peer**: DOP853 (`peer/dop853.rs`, order 8, 7th-order dense output)
+//! **The peer**: DOP853 (`src/solve/dop853.rs`, order 8, 7th-order dense output)
 //! with its own compiled event loop on the same equations `J(z) z'' = Q`
 //! (first-order model, `crate::structure::rotating`; DWZ eq. 15). The model
 //! is shared: the peer takes the assembled matrices `M`, `M - D`, `K`,
@@ -67,8 +67,6 @@
 
 #[path = "peer/brent.rs"]
 mod brent;
-#[path = "peer/dop853.rs"]
-mod dop853;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -77,7 +75,7 @@ use beamstop::contact::{Hertz, HertzDamping};
 use beamstop::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use beamstop::structure::rotating::Order;
 use brent::brent;
-use dop853::{Dop853, Rhs};
+use beamstop::solve::dop853::{self, Dop853, Rhs};
 use nalgebra::DVector;
 use serde_json::json;
 

@@ -5,7 +5,7 @@
 //! `q_j'' + 2 a_j q_j' + omega_j^2 q_j = f_j(t) - side k p W_j(L)` with the
 //! penetration `p = side w . q - gap` while the tip is in contact (p > 0),
 //! else no stop force (no damping in the stop). The peer is DOP853 (order 8,
-//! 7th-order dense output; `peer/dop853.rs`, a port of Hairer's code via
+//! 7th-order dense output; `src/solve/dop853.rs`, a port of Hairer's code via
 //! scipy), integrated phase by phase (free / contact) so that each phase has
 //! a smooth right-hand side, the way scipy's `solve_ivp(events=...)` works
 //! but compiled:
@@ -70,8 +70,6 @@
 //!
 //! `cargo run --release --example spring_stop_peer [-- --csv PATH] [--reps N]`
 
-#[path = "peer/dop853.rs"]
-mod dop853;
 
 use std::io::Write;
 use std::time::Instant;
@@ -79,7 +77,7 @@ use std::time::Instant;
 use beamstop::contact::Law;
 use beamstop::scene::StructureSpec;
 use beamstop::{EventKind, Model, Scene, Simulation};
-use dop853::{Dop853, Rhs};
+use beamstop::solve::dop853::{self, Dop853, Rhs};
 
 const T_END: f64 = 0.5;
 const N_OUT: usize = 5000;

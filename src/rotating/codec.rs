@@ -13,7 +13,8 @@ use super::sim::{RotatingSimulation, RotatingStats, REANCHOR_AFTER};
 use super::system::Phase;
 use crate::codec::{Reader, Writer};
 use crate::contact::Contact;
-use crate::solve::radau::{Radau, RadauOptions};
+use crate::solve::radau::RadauOptions;
+use super::stepper::Stepper;
 
 /// Version of the encoding below; bump on any change.
 /// 2: the shared contact-state codes (open 0, pressed 2, penetrated 3).
@@ -148,8 +149,7 @@ impl RotatingSimulation {
                 }
             }
         }
-        let mut probe = phase.clone();
-        let solver = Radau::new(&mut probe, anchor_time, &anchor, RadauOptions::default())
+        let solver = Stepper::new(model.spec.solver.method, &phase, anchor_time, &anchor, &RadauOptions::default())
             .map_err(|er| bad(format!("rotating state: the anchor cannot be integrated: {er}")))?;
         let mut sim = RotatingSimulation {
             model,

@@ -1,5 +1,5 @@
-//! The contact law's watched functions along one accepted Radau step, on
-//! the step's collocation polynomial `u(t)`, for the shared switch locator
+//! The contact law's watched functions along one accepted step, on the
+//! integrator's dense output `u(t)`, for the shared switch locator
 //! ([`crate::solve::switch`]): the surface's law says which functions its
 //! contact state watches ([`crate::contact::ContactLaw::watches`]) and
 //! their values; the geometric ones (the gap, the penetration) also give
@@ -7,46 +7,70 @@
 //! leaves again between two samples is found. Also the largest force of a
 //! push inside the step.
 
+use std::cell::RefCell;
+
 use nalgebra::DVector;
 
+use super::stepper::Stepper;
 use super::system::{ContactPoint, Phase};
 use crate::contact::{Contact, Watch};
-use crate::solve::radau::Radau;
 use crate::solve::switch::{first_switch, DenseWatch, SAMPLES};
 
 /// The last accepted step `[t0, t1]` of `solver`, with the state `y0` at its start.
 pub struct StepCurve<'a> {
     pub phase: &'a Phase,
-    pub solver: &'a Radau,
+    pub solver: &'a Stepper,
     pub t0: f64,
     pub t1: f64,
     pub y0: &'a DVector<f64>,
+    /// Room for `u(t)` and `u'(t)` (the samples' states).
+    buffers: RefCell<(DVector<f64>, DVector<f64>)>,
 }
 
 /// A located switch: its time, the watch whose zero it is, and the slope
 /// of the chord that bracketed it.
 pub type Switch = (f64, Watch, f64);
 
-impl StepCurve<'_> {
+impl<'a> StepCurve<'a> {
+    pub fn new(phase: &'a Phase, solver: &'a Stepper, t0: f64, t1: f64, y0: &'a DVector<f64>) -> Self {
+        let dim = y0.len();
+        StepCurve { phase, solver, t0, t1, y0, buffers: RefCell::new((DVector::zeros(dim), DVector::zeros(dim))) }
+    }
+
+    /// `u(t)` into `out`, as [`Self::y`].
+    fn y_into(&self, t: f64, out: &mut DVector<f64>) {
+        if t <= self.t0 {
+            out.copy_from(self.y0);
+        } else if t >= self.t1 || !self.solver.dense(t, out) {
+            out.copy_from(&self.solver.y());
+        }
+    }
+
     /// `u(t)`: exactly `y0` and the step's end at the ends.
     pub fn y(&self, t: f64) -> DVector<f64> {
         if t <= self.t0 {
             return self.y0.clone();
         }
         if t >= self.t1 {
-            return self.solver.y().clone();
+            return self.solver.y();
         }
         let mut out = DVector::zeros(self.y0.len());
-        if self.solver.dense(t, &mut out).is_err() {
-            out.copy_from(self.solver.y());
+        if !self.solver.dense(t, &mut out) {
+            out = self.solver.y();
         }
         out
     }
 
     pub fn point(&self, t: f64) -> ContactPoint {
-        let y = self.y(t);
-        let (z, zd) = self.phase.coords(t, &y);
-        self.phase.contact_point(&z, &zd)
+        if self.phase.prescribed() {
+            let y = self.y(t);
+            let (z, zd) = self.phase.coords(t, &y);
+            return self.phase.contact_point(&z, &zd);
+        }
+        let y = &mut self.buffers.borrow_mut().0;
+        self.y_into(t, y);
+        let m = self.phase.n() + 1;
+        self.phase.contact_point_at(&y.as_slice()[..m], &y.as_slice()[m..2 * m])
     }
 
     fn watches(&self) -> &'static [Watch] {
@@ -64,9 +88,20 @@ impl StepCurve<'_> {
     /// `d/dt gap(u(t))`.
     fn gap_rate(&self, t: f64) -> f64 {
         let Some(s) = &self.phase.model.surface else { return 0.0 };
+        if !self.phase.prescribed() {
+            // The penetration's rate is linear in z': along `u`, with `u'`
+            // in its place, it is the rate of the penetration of `u`.
+            let (y, dy) = &mut *self.buffers.borrow_mut();
+            self.y_into(t, y);
+            if !self.solver.dense_derivative(t, dy) {
+                return 0.0;
+            }
+            let m = self.phase.n() + 1;
+            return -self.phase.model.beam.plane_penetration(&y.as_slice()[..m], &dy.as_slice()[..m], &s.plane).1;
+        }
         let y = self.y(t);
         let mut dy = DVector::zeros(y.len());
-        if self.solver.dense_derivative(t, &mut dy).is_err() {
+        if !self.solver.dense_derivative(t, &mut dy) {
             return 0.0;
         }
         let (z, _) = self.phase.coords(t, &y);
@@ -103,7 +138,9 @@ impl StepCurve<'_> {
         let (mut x1, mut x2) = (hi - r * (hi - lo), lo + r * (hi - lo));
         let (mut f1, mut f2) = (f(x1), f(x2));
         for _ in 0..60 {
-            if !(x1 > lo && x2 < hi && x1 < x2) {
+            // A bracket of 1e-8 of the step leaves the value's error at
+            // ~1e-16 of the force's curvature scale.
+            if !(x1 > lo && x2 < hi && x1 < x2) || hi - lo < 1e-8 * h {
                 break;
             }
             if f1 >= f2 {

@@ -5,8 +5,10 @@
 //!
 //! - [`spec`]: the scene (serde, SI units) and its validation;
 //! - [`model`]: the scene in numbers (beam matrices, surface, hub drive);
-//! - [`system`]: one phase's equations for Radau IIA (state layout, force,
-//!   analytic Jacobian);
+//! - [`system`]: one phase's equations as a first-order system (state
+//!   layout, force, analytic Jacobian);
+//! - [`stepper`]: the integrators, DOP853 (default) or Radau IIA
+//!   (`solver.method`);
 //! - [`events`]: the contact law's watched functions along a step, for
 //!   the shared switch locator ([`crate::solve::switch`]);
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
@@ -24,6 +26,7 @@ pub mod interface;
 pub mod model;
 pub mod sim;
 pub mod spec;
+pub mod stepper;
 pub mod system;
 
 pub use codec::ROTATING_STATE_VERSION;

@@ -1,17 +1,19 @@
-//! One run of a rotating hub beam: the whole motion integrated by Radau IIA
-//! (the equations are nonlinear everywhere), restarted at every switch of
-//! the contact law and at every change of the torque input.
+//! One run of a rotating hub beam: the whole motion integrated (the
+//! equations are nonlinear everywhere) by DOP853 or Radau IIA
+//! ([`super::stepper`]), restarted at every switch of the contact law and
+//! at every change of the torque input.
 //!
 //! **Step grid.** After a restart the integrator starts from the restart
 //! state (the anchor) with options and a first step that depend only on
 //! the anchor, and steps on its own grid (`step(sys, f64::MAX)`):
 //! communication times never shorten a step. A state asked for inside a
-//! step (an output, a switch) is one fixed Radau step from the step's start
-//! (order 5, where the collocation polynomial has order 3), so results at
+//! step (an output, a switch) is one step of the same method from the
+//! step's start (full order, where the dense output has one order less,
+//! Radau's collocation polynomial two), so results at
 //! a given time do not depend on the communication step, and a restored
 //! run rebuilds the same steps from its anchor (`codec.rs`).
 //!
-//! **Switches** are located on each accepted step's polynomial
+//! **Switches** are located on each accepted step's dense output
 //! ([`super::events`]: samples, interior minima of the gap, bisection);
 //! the first one at or before the requested time is taken: the state there
 //! is recomputed to full order, the law switched (onset: the approach
@@ -41,7 +43,8 @@ use crate::contact::{Contact, Switch, Watch};
 use crate::error::SimError;
 use crate::kind::Reached;
 use crate::solve::Jet;
-use crate::solve::radau::{Radau, RadauOptions, Tol};
+use crate::solve::radau::{RadauOptions, Tol};
+use super::stepper::{self, Stepper};
 
 /// What happened at an event.
 #[derive(Clone, Debug, PartialEq)]
@@ -108,7 +111,7 @@ pub(super) struct Step {
 pub struct RotatingSimulation {
     pub(super) model: Arc<RotatingModel>,
     pub(super) phase: Phase,
-    pub(super) solver: Radau,
+    pub(super) solver: Stepper,
     pub(super) options: RadauOptions,
     pub(super) anchor_time: f64,
     pub(super) anchor: DVector<f64>,
@@ -136,17 +139,9 @@ pub struct RotatingSimulation {
 /// of the communication step.
 pub const REANCHOR_AFTER: u64 = 2000;
 
-/// One Radau step from `(t0, y0)` to `t1` without error control (the
-/// state inside a step to the method's full order).
+/// The state at `t1` inside a step from `(t0, y0)`, to full order.
 pub(super) fn full_order_state(phase: &Phase, options: &RadauOptions, t0: f64, y0: &DVector<f64>, t1: f64) -> Option<DVector<f64>> {
-    if t1 <= t0 || t1.is_nan() || t0.is_nan() {
-        return None;
-    }
-    let mut phase = phase.clone();
-    let o = RadauOptions { h_init: Some(t1 - t0), fixed_step: true, h_max: f64::INFINITY, ..options.clone() };
-    let mut solver = Radau::new(&mut phase, t0, y0, o).ok()?;
-    solver.step(&mut phase, t1).ok()?;
-    Some(solver.y().clone())
+    stepper::full_order_state(phase.model.spec.solver.method, phase, options, t0, y0, t1)
 }
 
 impl RotatingSimulation {
@@ -175,8 +170,7 @@ impl RotatingSimulation {
             }
         }
         let options = RadauOptions::default();
-        let mut probe = phase.clone();
-        let solver = Radau::new(&mut probe, start_time, &y, options.clone()).map_err(|e| integration(start_time, e.to_string()))?;
+        let solver = Stepper::new(model.spec.solver.method, &phase, start_time, &y, &options).map_err(|e| integration(start_time, e))?;
         let mut sim = RotatingSimulation {
             model: model.clone(),
             phase,
@@ -303,28 +297,27 @@ impl RotatingSimulation {
 
     /// The integrator at the anchor (no step taken).
     pub(super) fn start_phase(&mut self) -> Result<(), SimError> {
-        let st = self.solver.stats();
-        self.stats.rejected += st.rejected;
+        self.stats.rejected += self.solver.counts().1;
         self.options = self.phase_options(self.anchor_time, &self.anchor);
         self.step = None;
-        self.solver = Radau::new(&mut self.phase, self.anchor_time, &self.anchor, self.options.clone())
-            .map_err(|e| integration(self.anchor_time, e.to_string()))?;
+        self.solver = Stepper::new(self.model.spec.solver.method, &self.phase, self.anchor_time, &self.anchor, &self.options)
+            .map_err(|e| integration(self.anchor_time, e))?;
         Ok(())
     }
 
     /// One accepted step, its first switch and its peak force.
     pub(super) fn take_step(&mut self) -> Result<(), SimError> {
-        let (t0, y0) = (self.solver.t(), self.solver.y().clone());
+        let (t0, y0) = (self.solver.t(), self.solver.y());
         let (a, b) = self
             .solver
-            .step(&mut self.phase, f64::MAX)
+            .step(&mut self.phase)
             .map_err(|e| integration(t0, format!("{e} (contact {:?})", self.phase.contact)))?;
         self.stats.accepted += 1;
         self.steps_since_anchor += 1;
         if self.phase.contact != Contact::Open {
             self.stats.contact_steps += 1;
         }
-        let curve = StepCurve { phase: &self.phase, solver: &self.solver, t0: a, t1: b, y0: &y0 };
+        let curve = StepCurve::new(&self.phase, &self.solver, a, b, &y0);
         let switch = curve.first_switch();
         let mut peak = curve.peak_force(switch.map_or(b, |s| s.0));
         if let Some((tp, _)) = peak {
@@ -346,15 +339,15 @@ impl RotatingSimulation {
     pub(super) fn state_at(&self, t: f64) -> DVector<f64> {
         let Some(s) = &self.step else { return self.anchor.clone() };
         if t >= s.t1 {
-            return self.solver.y().clone();
+            return self.solver.y();
         }
         if t <= s.t0 {
             return s.y0.clone();
         }
         full_order_state(&self.phase, &self.options, s.t0, &s.y0, t).unwrap_or_else(|| {
             let mut out = DVector::zeros(s.y0.len());
-            if self.solver.dense(t, &mut out).is_err() {
-                out.copy_from(self.solver.y());
+            if !self.solver.dense(t, &mut out) {
+                out = self.solver.y();
             }
             out
         })
@@ -406,10 +399,10 @@ impl RotatingSimulation {
                 }
                 steps += 1;
                 if steps > self.model.spec.solver.max_steps_per_step {
-                    break Err(SimError::TooMuchWork { time: self.time, work: steps - 1, cap: "solver.max_steps_per_step, in Radau steps" });
+                    break Err(SimError::TooMuchWork { time: self.time, work: steps - 1, cap: "solver.max_steps_per_step, in integration steps" });
                 }
                 if self.steps_since_anchor >= REANCHOR_AFTER {
-                    let (t, y) = (self.solver.t(), self.solver.y().clone());
+                    let (t, y) = (self.solver.t(), self.solver.y());
                     if let Err(e) = self.restart(t, y, self.phase.contact) {
                         break Err(e);
                     }
@@ -519,7 +512,7 @@ impl RotatingSimulation {
 
     pub fn stats(&self) -> RotatingStats {
         let mut s = self.stats;
-        s.rejected += self.solver.stats().rejected;
+        s.rejected += self.solver.counts().1;
         s
     }
 

@@ -136,16 +136,18 @@ pub enum Profile {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSpec {
-    /// Relative local error of the Radau IIA integration.
+    /// Relative local error of the integration.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// The integrator: `dop853` (explicit, the default) or `radau`.
+    #[serde(default)]
+    pub method: super::stepper::Method,
     /// Events allowed within one call to `advance_to`.
     #[serde(default = "default_max_events")]
     pub max_events_per_step: u64,
     /// Integration steps allowed within one call to `advance_to`: a bound
-    /// on the time one call takes (Radau IIA: 50 to 130 us per step at 6
-    /// modes, so about 1.3 s at most; with a surface the step is capped at
-    /// the shortest modal period, so the DWZ scene covers at most about
+    /// on the time one call takes (with a surface the step is capped at
+    /// the shortest modal period, so the DWZ scene covers at least about
     /// 8 s per call).
     #[serde(default = "default_max_steps")]
     pub max_steps_per_step: u64,
@@ -153,7 +155,7 @@ pub struct SolverSpec {
 
 impl Default for SolverSpec {
     fn default() -> Self {
-        SolverSpec { tolerance: default_tolerance(), max_events_per_step: default_max_events(), max_steps_per_step: default_max_steps() }
+        SolverSpec { tolerance: default_tolerance(), method: Default::default(), max_events_per_step: default_max_events(), max_steps_per_step: default_max_steps() }
     }
 }
 

@@ -19,6 +19,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, DVector};
 
 use super::model::RotatingModel;
+use crate::structure::rotating::AccelerationScratch;
 use crate::contact::Contact;
 use crate::solve::radau::ImplicitSystem;
 
@@ -103,9 +104,13 @@ impl Phase {
 
     /// The contact at `(z, z')`; no surface: all zero.
     pub fn contact_point(&self, z: &DVector<f64>, zd: &DVector<f64>) -> ContactPoint {
+        self.contact_point_at(z.as_slice(), zd.as_slice())
+    }
+
+    /// [`Self::contact_point`] from slices (no allocation).
+    pub fn contact_point_at(&self, z: &[f64], zd: &[f64]) -> ContactPoint {
         let Some(s) = &self.model.surface else { return ContactPoint::default() };
-        let gamma = -self.model.beam.plane_gap(z, &s.plane);
-        let rate = -self.model.beam.plane_gap_rate(z, zd, &s.plane);
+        let (gamma, rate) = self.model.beam.plane_penetration(z, zd, &s.plane);
         let mut c = ContactPoint { penetration: gamma, rate, ..Default::default() };
         if gamma > 0.0 {
             let (f, dp, dpd) = s.law.raw_force(gamma, rate, self.onset_speed);
@@ -163,7 +168,10 @@ impl Phase {
         }
     }
 
-    fn fill_rhs(&self, t: f64, y: &DVector<f64>, dy: &mut DVector<f64>) -> Result<(), String> {
+    pub(super) fn fill_rhs(&self, t: f64, y: &DVector<f64>, dy: &mut DVector<f64>) -> Result<(), String> {
+        if !self.prescribed() {
+            return self.fill_rhs_free_hub(y.as_slice(), dy.as_mut_slice(), &mut AccelerationScratch::default());
+        }
         let n = self.n();
         let (z, zd) = self.coords(t, y);
         let c = self.contact_point(&z, &zd);
@@ -182,6 +190,33 @@ impl Phase {
             _ => 0.0,
         };
         dy[e + 2] = qc[0];
+        Ok(())
+    }
+
+    /// [`Self::fill_rhs`] for a hub driven by its torque, without
+    /// allocation: `y = [z; z'; extras]`.
+    pub(super) fn fill_rhs_free_hub(&self, y: &[f64], dy: &mut [f64], scratch: &mut AccelerationScratch) -> Result<(), String> {
+        let m = self.n() + 1;
+        let (z, rest) = y.split_at(m);
+        let zd = &rest[..m];
+        let e = self.extras();
+        let (pressed, onset_speed) = (self.contact == Contact::Pressed, self.onset_speed);
+        let surface = self.model.surface.as_ref();
+        let mut force = |p: f64, rate: f64| match surface {
+            Some(s) if p > 0.0 => s.law.raw_force(p, rate, onset_speed).0.max(0.0),
+            _ => 0.0,
+        };
+        // Only a pressed contact pushes.
+        let contact = surface.filter(|_| pressed).map(|s| (&s.plane, &mut force as &mut dyn FnMut(f64, f64) -> f64));
+        let (head, tail) = dy.split_at_mut(m);
+        head.copy_from_slice(zd);
+        let terms = self.model.beam.accelerations_in_place(z, zd, self.torque, contact, &mut tail[..m], scratch)?;
+        dy[e] = terms.force;
+        dy[e + 1] = match surface {
+            Some(s) if terms.force > 0.0 => (terms.force - s.law.spring_force(terms.penetration).0) * terms.rate,
+            _ => 0.0,
+        };
+        dy[e + 2] = terms.hub_force;
         Ok(())
     }
 

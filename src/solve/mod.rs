@@ -7,10 +7,12 @@
 //! A modal phase with a nonlinear contact force (Hertz) is stepped by
 //! [`collocation`]: the force a polynomial over a step, every mode exact
 //! under it ([`phi`]); the rotating beam, nonlinear in its whole state, by
-//! [`radau`], an L-stable Radau IIA (order 5) with honest Newton checks.
+//! [`dop853`] (explicit, order 8) or, where it is stiff, [`radau`], an
+//! L-stable Radau IIA (order 5) with honest Newton checks.
 
 pub mod collocation;
 pub mod complex;
+pub mod dop853;
 pub mod elementary;
 pub mod events;
 pub mod forcing;

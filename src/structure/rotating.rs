@@ -210,6 +210,65 @@ pub struct RotatingBeam {
     /// is the Schur complement of the hub (O(N^2) with `M` factored once).
     m_inv_gamma: DVector<f64>,
     gamma_m_inv_gamma: f64,
+    /// `M^-1` (the right-hand side's `M^-1 r_B` without a triangular
+    /// solve).
+    m_inv: DMatrix<f64>,
+}
+
+/// The contact's terms one evaluation of [`RotatingBeam::accelerations_in_place`]
+/// used: the penetration of the plane (`-gap`), its rate, the normal
+/// force and its share of the hub's generalized force.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ContactTerms {
+    pub penetration: f64,
+    pub rate: f64,
+    pub force: f64,
+    pub hub_force: f64,
+}
+
+/// The tip in the floating frame at `(z, z')`: `[x, y] = [R + L + u_L,
+/// v_L]`, their rates, and the frame's angle as `(sin, cos)`.
+#[derive(Clone, Copy, Debug)]
+struct TipFrame {
+    x: f64,
+    y: f64,
+    xd: f64,
+    yd: f64,
+    sn: f64,
+    cs: f64,
+}
+
+impl TipFrame {
+    /// The penetration of `plane` (`-gap`) and its rate, for hub rate `thd`.
+    fn penetration(&self, thd: f64, plane: &Plane) -> (f64, f64) {
+        let (sn, cs) = (self.sn, self.cs);
+        let r = [cs * self.x - sn * self.y, sn * self.x + cs * self.y];
+        let (lvx, lvy) = (self.xd - self.y * thd, self.x * thd + self.yd);
+        let v = [cs * lvx - sn * lvy, sn * lvx + cs * lvy];
+        let [nx, ny] = plane.normal;
+        (-(nx * (r[0] - plane.point[0]) + ny * (r[1] - plane.point[1])), -(nx * v[0] + ny * v[1]))
+    }
+}
+
+/// Working arrays of [`RotatingBeam::accelerations_in_place`].
+#[derive(Clone, Debug, Default)]
+pub struct AccelerationScratch {
+    mdb: Vec<f64>,
+    sb: Vec<f64>,
+    cb: Vec<f64>,
+    qb: Vec<f64>,
+}
+
+/// `a x` for `a` column-major `n x n` (nalgebra's storage), into `out`.
+fn mat_vec(a: &[f64], x: &[f64], out: &mut [f64]) {
+    let n = x.len();
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = (0..n).map(|j| a[i + j * n] * x[j]).sum();
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| p * q).sum()
 }
 
 impl RotatingBeam {
@@ -260,7 +319,8 @@ impl RotatingBeam {
         let m_chol = Cholesky::new(m.clone()).ok_or("rotating beam: modal mass matrix not positive definite")?;
         let m_inv_gamma = m_chol.solve(&gamma);
         let gamma_m_inv_gamma = gamma.dot(&m_inv_gamma);
-        Ok(RotatingBeam { params, hat, m, k, gamma, sigma, d, s, c_l, w, j_b, s_1, damping, m_minus_d, s_geo, c_tip, m_chol, m_inv_gamma, gamma_m_inv_gamma })
+        let m_inv = m_chol.inverse();
+        Ok(RotatingBeam { params, hat, m, k, gamma, sigma, d, s, c_l, w, j_b, s_1, damping, m_minus_d, s_geo, c_tip, m_chol, m_inv_gamma, gamma_m_inv_gamma, m_inv })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -350,6 +410,117 @@ impl RotatingBeam {
         let qb = &mdb * (thd * thd) - &self.k * &b - &self.sigma * (g * cs) + sb * (g * sn) - &self.damping * &bd;
         q.rows_mut(1, n).copy_from(&qb);
         q
+    }
+
+    /// `z''` from `J z'' = Q(z, z', torque) + Q_c` without allocation,
+    /// `Q_c` the generalized force of a normal force on the tip along
+    /// `plane` (`force(penetration, rate)`, `None`: no contact): the
+    /// equations of [`Self::generalized_forces`],
+    /// [`Self::contact_generalized_force`] and [`Self::solve_mass_vector`]
+    /// in one pass (the integrators' right-hand side). An error when `J`
+    /// is not positive definite.
+    pub fn accelerations_in_place(
+        &self,
+        z: &[f64],
+        zd: &[f64],
+        torque: f64,
+        contact: Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>,
+        zdd: &mut [f64],
+        scratch: &mut AccelerationScratch,
+    ) -> Result<ContactTerms, String> {
+        let n = self.n_modes();
+        assert!(z.len() == n + 1 && zd.len() == n + 1 && zdd.len() == n + 1, "rotating beam: a state vector has N + 1 = {} entries", n + 1);
+        let AccelerationScratch { mdb, sb, cb, qb } = scratch;
+        for v in [&mut *mdb, &mut *sb, &mut *cb, &mut *qb] {
+            v.resize(n, 0.0);
+        }
+        let (b, bd) = (&z[1..], &zd[1..]);
+        let (thd, g) = (zd[0], self.params.gravity);
+        // The angle enters through gravity and the contact only.
+        let (sn, cs) = if g != 0.0 || contact.is_some() { z[0].sin_cos() } else { (0.0, 1.0) };
+        let (mmd, sgeo, k, damping) = (self.m_minus_d.as_slice(), self.s_geo.as_slice(), self.k.as_slice(), self.damping.as_slice());
+        mat_vec(mmd, b, mdb);
+        let mut q0 = torque - 2.0 * thd * dot(mdb, bd);
+        if g != 0.0 {
+            mat_vec(sgeo, b, sb);
+            q0 -= g * (self.s_1 * cs - sn * dot(self.sigma.as_slice(), b) - 0.5 * cs * dot(b, sb));
+        }
+        for i in 0..n {
+            let kb: f64 = (0..n).map(|j| k[i + j * n] * b[j]).sum();
+            let cbd: f64 = (0..n).map(|j| damping[i + j * n] * bd[j]).sum();
+            qb[i] = mdb[i] * (thd * thd) - kb - cbd;
+            if g != 0.0 {
+                qb[i] += sb[i] * (g * sn) - self.sigma[i] * (g * cs);
+            }
+        }
+        let mut terms = ContactTerms::default();
+        if let Some((plane, force)) = contact {
+            let tip = self.tip_frame(z, zd, cb);
+            let (x, y) = (tip.x, tip.y);
+            (terms.penetration, terms.rate) = tip.penetration(thd, plane);
+            terms.force = force(terms.penetration, terms.rate);
+            if terms.force != 0.0 {
+                let f = terms.force;
+                let [nx, ny] = plane.normal;
+                let (lx, ly) = (cs * nx + sn * ny, -sn * nx + cs * ny);
+                terms.hub_force = f * (-y * lx + x * ly);
+                q0 += terms.hub_force;
+                for i in 0..n {
+                    qb[i] += (cb[i] * -lx + self.w[i] * ly) * f;
+                }
+            }
+        }
+        let schur = self.params.hub_inertia + self.j_b + dot(b, mdb) - self.gamma_m_inv_gamma;
+        if !(schur > 0.0) {
+            return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
+        }
+        let a = self.m_inv_gamma.as_slice();
+        let thdd = (q0 - dot(a, qb)) / schur;
+        zdd[0] = thdd;
+        mat_vec(self.m_inv.as_slice(), qb, &mut zdd[1..]);
+        for i in 0..n {
+            zdd[1 + i] -= a[i] * thdd;
+        }
+        Ok(terms)
+    }
+
+    /// The tip's floating-frame coordinates and rates; `cb` gets `C_L B`.
+    fn tip_frame(&self, z: &[f64], zd: &[f64], cb: &mut [f64]) -> TipFrame {
+        let (b, bd) = (&z[1..], &zd[1..]);
+        mat_vec(self.c_tip.as_slice(), b, cb);
+        let (sn, cs) = z[0].sin_cos();
+        TipFrame {
+            x: self.params.hub_radius + self.params.length - 0.5 * dot(b, cb),
+            y: dot(self.w.as_slice(), b),
+            xd: -dot(cb, bd),
+            yd: dot(self.w.as_slice(), bd),
+            sn,
+            cs,
+        }
+    }
+
+    /// The tip's penetration of `plane` (`-`[`Self::plane_gap`]) and its
+    /// rate at `(z, z')`, without allocation.
+    pub fn plane_penetration(&self, z: &[f64], zd: &[f64], plane: &Plane) -> (f64, f64) {
+        let (b, bd) = (&z[1..], &zd[1..]);
+        let n = b.len();
+        let c = self.c_tip.as_slice();
+        let (mut bcb, mut bdcb) = (0.0, 0.0);
+        for i in 0..n {
+            let cbi: f64 = (0..n).map(|j| c[i + j * n] * b[j]).sum();
+            bcb += b[i] * cbi;
+            bdcb += bd[i] * cbi;
+        }
+        let (sn, cs) = z[0].sin_cos();
+        let tip = TipFrame {
+            x: self.params.hub_radius + self.params.length - 0.5 * bcb,
+            y: dot(self.w.as_slice(), b),
+            xd: -bdcb,
+            yd: dot(self.w.as_slice(), bd),
+            sn,
+            cs,
+        };
+        tip.penetration(zd[0], plane)
     }
 
     /// Solves `J z'' = Q + q_extra` (e.g. `q_extra` = a contact force) by

@@ -17,8 +17,9 @@
 //! States are slices of any length; every buffer is allocated once in
 //! [`Dop853::new`], so [`Dop853::step`], [`Dop853::dense`] and
 //! [`Dop853::restart`] do not allocate.
-
-#![allow(dead_code)]
+//!
+//! The rotating beam's default integrator, and the integrator of the
+//! compiled peers the benchmarks compare beamstop with (`examples/`).
 
 /// A right-hand side `dy = f(t, y)`. Every `FnMut(f64, &[f64], &mut [f64])`
 /// is one; a struct implementing it can carry switchable state (a phase).
@@ -263,6 +264,7 @@ pub enum StepError {
 }
 
 /// A DOP853 integration from `t` towards `t_bound`.
+#[derive(Clone, Debug)]
 pub struct Dop853<F: Rhs> {
     pub rhs: F,
     n: usize,
@@ -383,10 +385,6 @@ impl<F: Rhs> Dop853<F> {
         };
     }
 
-    fn rms(&self, v: &[f64]) -> f64 {
-        (v.iter().map(|x| x * x).sum::<f64>() / self.n as f64).sqrt()
-    }
-
     /// scipy `select_initial_step` (Hairer, Norsett & Wanner, Sec. II.4,
     /// "automatic selection of the initial step size"), error estimator
     /// order 7.
@@ -425,9 +423,64 @@ impl<F: Rhs> Dop853<F> {
         (100.0 * h0).min(h1).min(interval).min(self.max_step)
     }
 
+    /// The stages of a step of size `h` from `(t, y)`: the new state in
+    /// `ytmp`, `f` there in `K[12]`; returns the error norm.
+    fn attempt(&mut self, h: f64) -> f64 {
+        let n = self.n;
+        let t = self.t;
+        // The 12 stages; K[12] = f(t + h, y_new).
+        self.k[..n].copy_from_slice(&self.f);
+        for s in 1..N_STAGES {
+            combine(&self.k, n, ROWS[s], h, &self.y, &mut self.ytmp);
+            let (_, ks) = self.k.split_at_mut(s * n);
+            self.rhs.eval(t + C[s] * h, &self.ytmp, &mut ks[..n]);
+        }
+        combine(&self.k, n, B, h, &self.y, &mut self.ytmp);
+        {
+            let (_, k12) = self.k.split_at_mut(N_STAGES * n);
+            self.rhs.eval(t + h, &self.ytmp, &mut k12[..n]);
+        }
+        self.n_fev += N_STAGES;
+
+        // Error norm: the (5, 3) combination of Hairer's DOP853 as in scipy.
+        let mut e5 = 0.0;
+        let mut e3 = 0.0;
+        for i in 0..n {
+            let scale = self.atol[i] + self.y[i].abs().max(self.ytmp[i].abs()) * self.rtol;
+            let mut a5 = 0.0;
+            for &(j, c) in E5 {
+                a5 += c * self.k[j * n + i];
+            }
+            let mut a3 = 0.0;
+            for &(j, c) in E3 {
+                a3 += c * self.k[j * n + i];
+            }
+            e5 += (a5 / scale).powi(2);
+            e3 += (a3 / scale).powi(2);
+        }
+        if e5 == 0.0 && e3 == 0.0 {
+            0.0
+        } else {
+            h * e5 / ((e5 + 0.01 * e3) * n as f64).sqrt()
+        }
+    }
+
+    /// Takes the attempted step of size `h` to `t_new`, proposing `h_next`.
+    fn accept(&mut self, h: f64, t_new: f64, h_next: f64) {
+        let n = self.n;
+        self.h_previous = h;
+        self.t_old = self.t;
+        std::mem::swap(&mut self.y_old, &mut self.y);
+        self.y.copy_from_slice(&self.ytmp);
+        self.t = t_new;
+        self.h_abs = h_next;
+        self.f.copy_from_slice(&self.k[N_STAGES * n..(N_STAGES + 1) * n]);
+        self.dense_ready = false;
+        self.n_accepted += 1;
+    }
+
     /// One accepted step (rejected attempts included): returns `[t_old, t_new]`.
     pub fn step(&mut self) -> Result<(f64, f64), StepError> {
-        let n = self.n;
         let t = self.t;
         if t >= self.t_bound {
             return Err(StepError::Finished);
@@ -445,67 +498,37 @@ impl<F: Rhs> Dop853<F> {
             }
             let h = t_new - t;
             h_abs = h;
-
-            // The 12 stages; K[12] = f(t + h, y_new).
-            self.k[..n].copy_from_slice(&self.f);
-            for s in 1..N_STAGES {
-                combine(&self.k, n, ROWS[s], h, &self.y, &mut self.ytmp);
-                let (_, ks) = self.k.split_at_mut(s * n);
-                self.rhs.eval(t + C[s] * h, &self.ytmp, &mut ks[..n]);
-            }
-            combine(&self.k, n, B, h, &self.y, &mut self.ytmp);
-            {
-                let (_, k12) = self.k.split_at_mut(N_STAGES * n);
-                self.rhs.eval(t + h, &self.ytmp, &mut k12[..n]);
-            }
-            self.n_fev += N_STAGES;
-
-            // Error norm: the (5, 3) combination of Hairer's DOP853 as in scipy.
-            let mut e5 = 0.0;
-            let mut e3 = 0.0;
-            for i in 0..n {
-                let scale = self.atol[i] + self.y[i].abs().max(self.ytmp[i].abs()) * self.rtol;
-                let mut a5 = 0.0;
-                for &(j, c) in E5 {
-                    a5 += c * self.k[j * n + i];
-                }
-                let mut a3 = 0.0;
-                for &(j, c) in E3 {
-                    a3 += c * self.k[j * n + i];
-                }
-                e5 += (a5 / scale).powi(2);
-                e3 += (a3 / scale).powi(2);
-            }
-            let error_norm = if e5 == 0.0 && e3 == 0.0 { 0.0 } else { h * e5 / ((e5 + 0.01 * e3) * n as f64).sqrt() };
-
+            let error_norm = self.attempt(h);
             if error_norm < 1.0 {
                 let mut factor = if error_norm == 0.0 { MAX_FACTOR } else { MAX_FACTOR.min(SAFETY * error_norm.powf(ERROR_EXPONENT)) };
                 if rejected {
                     factor = factor.min(1.0);
                 }
-                h_abs *= factor;
-                // Accept.
-                self.h_previous = h;
-                self.t_old = t;
-                std::mem::swap(&mut self.y_old, &mut self.y);
-                self.y.copy_from_slice(&self.ytmp);
-                self.t = t_new;
-                self.h_abs = h_abs;
-                self.f.copy_from_slice(&self.k[N_STAGES * n..(N_STAGES + 1) * n]);
-                self.dense_ready = false;
-                self.n_accepted += 1;
+                self.accept(h, t_new, h_abs * factor);
                 return Ok((t, t_new));
             }
-            h_abs *= MIN_FACTOR.max(SAFETY * error_norm.powf(ERROR_EXPONENT));
+            // A non-finite error (a right-hand side that failed) shrinks
+            // the step as much as a rejection may.
+            h_abs *= if error_norm.is_finite() { MIN_FACTOR.max(SAFETY * error_norm.powf(ERROR_EXPONENT)) } else { MIN_FACTOR };
             rejected = true;
             self.n_rejected += 1;
         }
     }
 
+    /// One step to `t_new` without error control (the state inside the
+    /// last step to the method's full order: a step of its own from the
+    /// step's start).
+    pub fn step_to(&mut self, t_new: f64) {
+        let h = t_new - self.t;
+        self.attempt(h);
+        let h_next = self.h_abs;
+        self.accept(h, t_new, h_next);
+    }
+
     /// The three extra stages and the coefficients `F[0..7]` of the
     /// continuous extension of the last accepted step (scipy
     /// `DOP853._dense_output_impl`).
-    fn prepare_dense(&mut self) {
+    pub fn prepare_dense(&mut self) {
         let n = self.n;
         let h = self.h_previous;
         for (r, row) in EXTRA_ROWS.iter().enumerate() {
@@ -556,6 +579,51 @@ impl<F: Rhs> Dop853<F> {
             }
             out[i] = y + self.y_old[i];
         }
+    }
+
+    /// The dense output at `t` (as [`Self::dense`]) once
+    /// [`Self::prepare_dense`] ran after the last step; `false` before.
+    pub fn dense_at(&self, t: f64, out: &mut [f64]) -> bool {
+        if !self.dense_ready || self.h_previous == 0.0 {
+            return false;
+        }
+        let n = self.n;
+        let x = (t - self.t_old) / self.h_previous;
+        let x1 = 1.0 - x;
+        let fd = &self.dense_f;
+        for i in 0..n {
+            let mut y = 0.0;
+            for (m, r) in (0..7).rev().enumerate() {
+                y += fd[r * n + i];
+                y *= if m % 2 == 0 { x } else { x1 };
+            }
+            out[i] = y + self.y_old[i];
+        }
+        true
+    }
+
+    /// The time derivative of the dense output at `t` (the polynomial's
+    /// own, differentiated through the same scheme); `false` before
+    /// [`Self::prepare_dense`].
+    pub fn dense_derivative_at(&self, t: f64, out: &mut [f64]) -> bool {
+        if !self.dense_ready || self.h_previous == 0.0 {
+            return false;
+        }
+        let n = self.n;
+        let x = (t - self.t_old) / self.h_previous;
+        let x1 = 1.0 - x;
+        let fd = &self.dense_f;
+        for i in 0..n {
+            let (mut y, mut dy) = (0.0, 0.0);
+            for (m, r) in (0..7).rev().enumerate() {
+                y += fd[r * n + i];
+                let (factor, dfactor) = if m % 2 == 0 { (x, 1.0) } else { (x1, -1.0) };
+                dy = dy * factor + y * dfactor;
+                y *= factor;
+            }
+            out[i] = dy / self.h_previous;
+        }
+        true
     }
 
     /// `sum_i w_i y_i(t)` from the dense output, over the first `w.len()`
@@ -640,4 +708,39 @@ pub fn self_check() -> (f64, f64, usize) {
         forced_err = forced_err.max((out[0] - forced(tm)).abs()).max((s2.y()[0] - forced(b)).abs());
     }
     (end_err.max(forced_err), dense_err.max(forced_err), steps)
+}
+
+#[cfg(test)]
+mod tests {
+    /// The method against closed forms (undamped and forced oscillators),
+    /// and the dense output's derivative against a central difference.
+    #[test]
+    fn matches_closed_forms() {
+        let (end_err, dense_err, steps) = super::self_check();
+        assert!(end_err < 1e-10 && dense_err < 1e-9, "end {end_err:e}, dense {dense_err:e}");
+        assert!(steps > 10);
+        let w = 3.0;
+        let rhs = move |_t: f64, y: &[f64], dy: &mut [f64]| {
+            dy[0] = y[1];
+            dy[1] = -w * w * y[0];
+        };
+        let mut s = super::Dop853::new(rhs, 0.0, &[1.0, 0.0], 10.0, 1e-12, &[1e-12], None);
+        s.step().unwrap();
+        s.prepare_dense();
+        let (a, b) = s.last_step();
+        let (mut d, mut p, mut m) = ([0.0; 2], [0.0; 2], [0.0; 2]);
+        let tm = a + 0.3 * (b - a);
+        let eps = 1e-6 * (b - a);
+        assert!(s.dense_derivative_at(tm, &mut d));
+        s.dense_at(tm + eps, &mut p);
+        s.dense_at(tm - eps, &mut m);
+        for i in 0..2 {
+            let fd = (p[i] - m[i]) / (2.0 * eps);
+            assert!((d[i] - fd).abs() < 1e-7 * (1.0 + fd.abs()), "component {i}: {} against {fd}", d[i]);
+        }
+        // And against the equation: y' = v.
+        let mut y = [0.0; 2];
+        s.dense_at(tm, &mut y);
+        assert!((d[0] - y[1]).abs() < 1e-9, "{} against {}", d[0], y[1]);
+    }
 }
