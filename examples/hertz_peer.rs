@@ -1,5 +1,5 @@
 //! Error against run time for the Hertz stop's contact phases: beamstop
-//! (closed-form free flight, Radau IIA contact phases) against the strongest
+//! (closed-form free flight, force-collocation contact phases) against the strongest
 //! compiled peer, DOP853 with dense output (`src/solve/dop853.rs`), integrated
 //! phase by phase, on `scenes/hertz_stop.json` (20 modes, K = 1.088e10
 //! N/m^1.5, Lankarani-Nikravesh e = 0.8), 0.2 s from rest.
@@ -65,7 +65,7 @@
 //! `--stiffness-csv` runs the scene at K = 1e6, 1e8, 1e10, 1e12 and its own K
 //! (tol 1e-10) and
 //! writes the event-search probes per contact phase (`Simulation::stats`:
-//! each probe of an integrated phase is one accepted Radau step; a contact's
+//! each probe of an integrated phase is one accepted collocation step; a contact's
 //! count also holds the few free-flight probes of the calls that end at its
 //! onset and separation).
 
@@ -482,7 +482,7 @@ fn main() {
         bs_ref.onsets.len(),
         peer_ref.onsets.len()
     );
-    // Self-convergence: untimed runs at 1e-14 (Radau's and the scenes' floor)
+    // Self-convergence: untimed runs at 1e-14 (the scenes' floor)
     // and the differences between every pair of the tight runs.
     let mut tight: Vec<(String, Run)> = Vec::new();
     for (solver, tol) in [("beamstop", 1e-12), ("beamstop", 1e-13), ("dop853cap", 1e-12), ("dop853cap", 1e-13), ("dop853", 1e-13)] {
@@ -612,7 +612,7 @@ fn main() {
     if let Some(path) = &stiffness_csv {
         let mut f = std::fs::File::create(path).expect("stiffness csv");
         writeln!(f, "K,contacts,probes_per_contact_mean,probes_per_contact_min,probes_per_contact_max,contact_ms_mean,probes_total,ms").unwrap();
-        println!("probes (accepted Radau steps + searches) per contact phase, tol 1e-10:");
+        println!("probes (accepted collocation steps + searches) per contact phase, tol 1e-10:");
         let k_scene = match &model.stops[0].law {
             Law::Hertz(h) => h.stiffness,
             _ => unreachable!(),

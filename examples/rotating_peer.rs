@@ -7,8 +7,8 @@
 //! the first collision cluster (about a dozen contacts, the last ending near
 //! 19 ms) and 30 ms of free flight after it.
 //!
-//! **beamstop**: `RotatingSimulation` (Radau IIA over the whole motion,
-//! switches on the collocation polynomial) at `solver.tolerance` 1e-4 ..
+//! **beamstop**: `RotatingSimulation` (DOP853 over the whole motion, its
+//! default `solver.method`; switches on the dense output) at `solver.tolerance` 1e-4 ..
 //! 1e-12, one `advance_to(T_END)`, the events drained.
 //!
 //! **The peer**: DOP853 (`src/solve/dop853.rs`, order 8, 7th-order dense output)

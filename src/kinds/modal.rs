@@ -76,7 +76,7 @@ impl Scene for ModalScene {
 
     fn method(&self) -> &'static str {
         "Between events the modal equations are propagated in closed form (contact phases of a \
-         nonlinear stop law by Radau IIA); impacts, chatter, sticking and release are located so that \
+         nonlinear stop law by force collocation, every mode exact under the force); impacts, chatter, sticking and release are located so that \
          none can be missed, and the trajectory does not depend on the communication step. Events \
          inside a step are reported through the outputs (counters, exact time of the latest impact) \
          and the <code>logEvents</code> log category."

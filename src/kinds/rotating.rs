@@ -72,9 +72,9 @@ impl Scene for RotatingScene {
 
     fn method(&self) -> &'static str {
         "The hub angle and the bending modes (with geometric stiffening in the first-order model) are \
-         integrated by Radau IIA with error control on a step grid that never depends on the \
-         communication step; contact onsets, the end of each push and separations are located on \
-         every step's collocation polynomial, including interior minima of the gap, so a graze \
+         integrated by DOP853 (or Radau IIA, solver.method) with error control on a step grid that \
+         never depends on the communication step; contact onsets, the end of each push and \
+         separations are located on every step's dense output, including interior minima of the gap, so a graze \
          inside a step is not missed. Events are reported through the outputs and the \
          <code>logEvents</code> log category."
     }
@@ -159,6 +159,6 @@ impl Run for RotatingRun {
 
     fn work(&self) -> Work {
         let stats = self.sim.stats();
-        Work { events: stats.events, units: stats.accepted, unit: "Radau steps" }
+        Work { events: stats.events, units: stats.accepted, unit: "integration steps" }
     }
 }

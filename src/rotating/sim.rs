@@ -212,7 +212,7 @@ impl RotatingSimulation {
         Ok(sim)
     }
 
-    /// Radau options for a phase starting at `(t, y)`: tolerances scaled by
+    /// The integrator's options for a phase starting at `(t, y)`: tolerances scaled by
     /// the motion's size, the step cap (module doc).
     fn phase_options(&self, t: f64, y: &DVector<f64>) -> RadauOptions {
         let m = &self.model;
@@ -224,6 +224,7 @@ impl RotatingSimulation {
         let mut q = z.rows(1, n).amax().max(1e-4 * length);
         let mut v = zd.rows(1, n).amax().max(q * m.beam.omega(1));
         let mut h_max = f64::INFINITY;
+        let mut h_init = None;
         if let Some(s) = &m.surface {
             h_max = m.shortest_period();
             if self.phase.contact != Contact::Open {
@@ -245,7 +246,14 @@ impl RotatingSimulation {
                     let p = c.penetration.max(depth).max(1e-9 * length);
                     let omega_c = (s.law.raw_force(p, 0.0, self.phase.onset_speed).1 / mass).sqrt();
                     if omega_c > 0.0 && omega_c.is_finite() {
-                        h_max = h_max.min(0.25 * std::f64::consts::TAU / omega_c);
+                        let quarter = 0.25 * std::f64::consts::TAU / omega_c;
+                        h_max = h_max.min(quarter);
+                        // A push starting at the surface grows as t^1.5: a
+                        // first step of tol^(2/7) of the contact's scale
+                        // carries that corner's error to the tolerance.
+                        if c.penetration <= 1e-3 * depth {
+                            h_init = Some(quarter * tol.powf(2.0 / 7.0).min(0.25));
+                        }
                     }
                     let w_max = m.beam.w.amax().max(f64::MIN_POSITIVE);
                     q = q.max(depth / w_max);
@@ -274,6 +282,7 @@ impl RotatingSimulation {
             rtol: Tol::Scalar(tol),
             atol: Tol::Vector(atol),
             h_max,
+            h_init,
             max_steps: u64::MAX,
             refresh_jacobian_every_step: refresh,
             ..RadauOptions::default()

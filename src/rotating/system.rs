@@ -1,5 +1,5 @@
 //! The integrated equations of one phase (a contact state, an onset speed,
-//! a hub torque) as a first-order system for Radau IIA.
+//! a hub torque) as a first-order system (DOP853's and Radau IIA's).
 //!
 //! State `y`: torque-driven hub `[theta, B, theta', B', P, E, H]`, prescribed
 //! hub `[B, B', P, E, H]` (theta from the profile), with the running totals

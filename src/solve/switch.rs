@@ -1,6 +1,6 @@
 //! The switch locator of every integrated phase: the first zero of a set
 //! of watched functions along one accepted step's dense output (the
-//! collocation polynomial of a Radau step), located so that a dip between
+//! force collocation's, DOP853's or Radau's polynomial), located so that a dip between
 //! samples is not missed where it can be seen.
 //!
 //! **Samples.** The functions are evaluated at [`SAMPLES`] equally spaced
@@ -24,20 +24,20 @@
 //! is bisected to the minimum, and a negative minimum brackets a zero on
 //! its left. Were the curve exactly cubic and the function linear in it,
 //! the rate would be quadratic and these points would find every minimum;
-//! a miss needs two extrema within about a sixteenth of a step, a
+//! a miss needs two extrema within about an eighth of a step, a
 //! reversal faster than the error control lets the polynomial represent.
 //! An interval is not searched when its ends both lie higher above zero
 //! than four times the larger rate at its ends times its length (a dip
 //! needs a rate beyond four times those), or when the cubic through the
 //! ends' values and rates stays above half the lower end (a dip needs the
-//! function to leave that cubic by more, within an eighth of a step).
+//! function to leave that cubic by more, within a quarter of a step).
 //! Functions without a rate (forces) have no such search: a force that
 //! reaches zero and turns positive again within one sample interval is
 //! not seen (the laws clamp their force at zero, so the motion stays
 //! right).
 
 /// Samples of the watched functions per accepted step.
-pub const SAMPLES: usize = 8;
+pub const SAMPLES: usize = 4;
 
 /// The samples of `[t0, t1]` where [`first_switch`] evaluates every
 /// function (`t0` first), with the very expressions it uses: a dense
