@@ -485,9 +485,10 @@ impl ForceCollocation {
         let smallest = if corner { self.options.tol.powf(2.0 / 7.0) } else { 1.0 };
         let mut remaining = 1.0;
         while remaining / GRADING > smallest && t1 - t > 0.0 {
-            let h_try = remaining * (1.0 - 1.0 / GRADING) * (t1 - t0);
+            // A size of the ladder, whose kernels recur from switch to switch.
+            let h_try = ladder(remaining * (1.0 - 1.0 / GRADING) * (t1 - t0));
             let guess = self.guess(forces, t, &y, h_try);
-            let a = self.attempt(forces, t, &y, h_try, &guess, false)?;
+            let a = self.attempt(forces, t, &y, h_try, &guess, true)?;
             (t, y) = (t + h_try, a.y1);
             remaining /= GRADING;
         }
