@@ -59,7 +59,8 @@
 //! disturbed one); integration only: the model, with its modal integrals,
 //! is built once per tolerance outside the timing.
 //!
-//! `cargo run --release --example rotating_peer -- [--json PATH] [--reps N] [--quick]`
+//! `cargo run --release --example rotating_peer -- [--json PATH] [--reps N] [--quick] [--modes N]`
+//! (`--modes`: the scene with N modes, e.g. 32)
 //!
 //! `--json` writes every run (the measures, the work), the scene's numbers
 //! for the scipy runs of `python/beamstop_tools/report/rotating_peers.py`, and the library's
@@ -539,8 +540,14 @@ fn scene(tol: f64) -> RotatingSpec {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/rotating_beam.json");
     let mut spec = RotatingSpec::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
     spec.solver.tolerance = tol;
+    if let Some(&n) = MODES.get() {
+        spec.n_modes = n;
+    }
     spec
 }
+
+/// `--modes N`: the scene with N modes instead of its own.
+static MODES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
 
 struct Row {
     solver: &'static str,
@@ -614,6 +621,9 @@ fn main() {
     let json_path = arg("--json");
     let reps: usize = arg("--reps").map_or(3, |r| r.parse().expect("--reps N"));
     let quick = args.iter().any(|a| a == "--quick");
+    if let Some(n) = arg("--modes") {
+        MODES.set(n.parse().expect("--modes N")).expect("set once");
+    }
 
     let (end_err, dense_err, _) = dop853::self_check();
     assert!(end_err < 1e-10 && dense_err < 1e-10, "DOP853 port is wrong");

@@ -407,7 +407,7 @@ impl RotatingSimulation {
                     break Ok(());
                 }
                 steps += 1;
-                if steps > self.model.spec.solver.max_steps_per_step {
+                if steps > self.model.spec.solver.step_budget(self.model.n_modes()) {
                     break Err(SimError::TooMuchWork { time: self.time, work: steps - 1, cap: "solver.max_steps_per_step, in integration steps" });
                 }
                 if self.steps_since_anchor >= REANCHOR_AFTER {

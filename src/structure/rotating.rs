@@ -213,6 +213,8 @@ pub struct RotatingBeam {
     /// `M^-1` (the right-hand side's `M^-1 r_B` without a triangular
     /// solve).
     m_inv: DMatrix<f64>,
+    /// No modal damping (its product skipped).
+    undamped: bool,
 }
 
 /// The contact's terms one evaluation of [`RotatingBeam::accelerations_in_place`]
@@ -320,7 +322,8 @@ impl RotatingBeam {
         let m_inv_gamma = m_chol.solve(&gamma);
         let gamma_m_inv_gamma = gamma.dot(&m_inv_gamma);
         let m_inv = m_chol.inverse();
-        Ok(RotatingBeam { params, hat, m, k, gamma, sigma, d, s, c_l, w, j_b, s_1, damping, m_minus_d, s_geo, c_tip, m_chol, m_inv_gamma, gamma_m_inv_gamma, m_inv })
+        let undamped = damping.iter().all(|c| *c == 0.0);
+        Ok(RotatingBeam { params, hat, m, k, gamma, sigma, d, s, c_l, w, j_b, s_1, damping, m_minus_d, s_geo, c_tip, m_chol, m_inv_gamma, gamma_m_inv_gamma, m_inv, undamped })
     }
 
     pub fn n_modes(&self) -> usize {
@@ -447,7 +450,7 @@ impl RotatingBeam {
         }
         for i in 0..n {
             let kb: f64 = (0..n).map(|j| k[i + j * n] * b[j]).sum();
-            let cbd: f64 = (0..n).map(|j| damping[i + j * n] * bd[j]).sum();
+            let cbd: f64 = if self.undamped { 0.0 } else { (0..n).map(|j| damping[i + j * n] * bd[j]).sum() };
             qb[i] = mdb[i] * (thd * thd) - kb - cbd;
             if g != 0.0 {
                 qb[i] += sb[i] * (g * sn) - self.sigma[i] * (g * cs);
