@@ -127,11 +127,15 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
 
 /// The first point in `(a, b]` past which `f` is negative, given
 /// `f(b) < 0`: the right end of a bracket narrowed to an ulp (`f(a)` is
-/// taken as non-negative). Regula falsi with the Illinois modification,
-/// a bisection whenever a step fails to halve the bracket, and, once the
-/// secant point is known to a few ulps, a bracket of a few ulps around it
-/// finished by bisection: about ten evaluations where bisection alone
-/// takes fifty.
+/// taken as non-negative). Regula falsi with the Illinois modification;
+/// when two points in a row land on one side, the next steps past the
+/// secant's estimate by its distance from that side, to bracket the zero
+/// tightly from the other; a secant that rounds onto an end (its value at
+/// the rounding floor) probes just inside it; a bisection whenever the
+/// bracket stops shrinking; once the secant point is known to a few ulps,
+/// a bracket of a few ulps around it finished by bisection. About nine
+/// evaluations (HertzStop's 42 switches: 374, where plain regula falsi
+/// with Illinois took 702 and bisection alone about fifty each).
 fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     let (mut fa, mut fb) = (f(a).max(0.0), f(b));
     let mut last_width = b - a;
@@ -144,11 +148,21 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
         let width = b - a;
         let secant = if fa > fb { b - fb * (width / (fb - fa)) } else { m };
         let ulps = 4.0 * f64::EPSILON * a.abs().max(b.abs());
-        let x = if width > 0.5 * last_width && side.abs() > 1 {
+        let x = if width > 0.5 * last_width && side.abs() > 2 {
             // Slow progress: bisect.
             m
+        } else if side.abs() > 1 && secant > a && secant < b {
+            // Converging on the zero from one side: step past the secant's
+            // estimate by its distance from that side's end, to bracket
+            // the zero tightly from the other.
+            let past = if side < 0 { secant - (b - secant) } else { secant + (secant - a) };
+            if past > a && past < b { past } else { secant }
         } else if secant > a && secant < b {
             secant
+        } else if width > 4.0 * ulps {
+            // The secant rounds onto an end (its value at the rounding
+            // floor): the zero is within an ulp of it, probed just inside.
+            if fa < fb.abs() { a } else { b }
         } else {
             m
         };
