@@ -315,6 +315,12 @@ struct Scratch {
     defect: Vec<f64>,
     drive: Vec<f64>,
     fb: Vec<f64>,
+    /// The step's start and the free motion at its points.
+    start: ModalState,
+    end: ModalState,
+    /// A step whose storage the next attempt reuses (a rejected attempt's,
+    /// the last accepted step once replaced).
+    spare: Option<Step>,
 }
 
 /// Dense states by time, the oldest overwritten first; cleared without
@@ -452,12 +458,15 @@ impl ForceCollocation {
                     self.h = (h * grow).min(self.options.h_max);
                     self.t = t0 + h;
                     self.y = a.y1;
-                    self.last = Some(a.step);
+                    if let Some(old) = self.last.replace(a.step) {
+                        self.recycle(old);
+                    }
                     self.memo.borrow_mut().clear();
                     self.accepted += 1;
                     return Ok((t0, self.t));
                 }
                 Ok(a) => {
+                    self.recycle(a.step);
                     self.rejected += 1;
                     h *= (0.9 * a.error.powf(-1.0 / order)).clamp(0.1, 0.9);
                 }
@@ -490,6 +499,7 @@ impl ForceCollocation {
             let guess = self.guess(forces, t, &y, h_try);
             let a = self.attempt(forces, t, &y, h_try, &guess, true)?;
             (t, y) = (t + h_try, a.y1);
+            self.recycle(a.step);
             remaining /= GRADING;
         }
         let mut h = t1 - t;
@@ -499,13 +509,17 @@ impl ForceCollocation {
             let guess = self.guess(forces, t, &y, h_try);
             match self.attempt(forces, t, &y, h_try, &guess, false) {
                 Ok(a) if a.error <= 1.0 => {
+                    self.recycle(a.step);
                     if last {
                         return Ok(a.y1);
                     }
                     (t, y) = (t + h_try, a.y1);
                     h = h_try * if a.error == 0.0 { 4.0 } else { (0.9 * a.error.powf(-1.0 / order)).clamp(0.2, 4.0) };
                 }
-                Ok(a) => h = h_try * (0.9 * a.error.powf(-1.0 / order)).clamp(0.1, 0.9),
+                Ok(a) => {
+                    self.recycle(a.step);
+                    h = h_try * (0.9 * a.error.powf(-1.0 / order)).clamp(0.1, 0.9);
+                }
                 Err(NewtonFailure) => h = h_try * 0.25,
             }
             if !(h > 1e-15 * t.abs()) {
@@ -513,6 +527,11 @@ impl ForceCollocation {
             }
         }
         Err(NewtonFailure)
+    }
+
+    /// Keeps `step`'s storage for the next attempt.
+    fn recycle(&self, step: Step) {
+        self.scratch.borrow_mut().spare = Some(step);
     }
 
     /// Whether `t` in the last step may lie at or near a force's corner:
@@ -689,21 +708,33 @@ impl ForceCollocation {
     fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, guess: &[f64], cached: bool) -> Result<Attempt, NewtonFailure> {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
-        let start = ModalState { q: y0.rows(0, n).into_owned(), qd: y0.rows(n, n).into_owned() };
-        let free = FreeSegment::new(&self.dynamics, t0, &start);
-        // Points: the nodes, then the step's end.
         let kernels = self.kernels_for(h, cached);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
-        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb } = &mut *guard;
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, spare } = &mut *guard;
+        if start.q.len() != n {
+            (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
+        }
+        start.q.copy_from(&y0.rows(0, n));
+        start.qd.copy_from(&y0.rows(n, n));
+        // The storage of a spare step, else new.
+        let (mut free, mut force, mut dissipation, mut y0_copy) = match spare.take() {
+            Some(Step { free, force, dissipation, y0: copy, .. }) => (free, force, dissipation, copy),
+            None => (FreeSegment::new(&self.dynamics, t0, start), Vec::new(), Vec::new(), y0.clone()),
+        };
+        free.reset(&self.dynamics, t0, start);
+        if y0_copy.len() == y0.len() {
+            y0_copy.copy_from(y0);
+        } else {
+            y0_copy = y0.clone();
+        }
         // Free motion of the contact coordinates at the points; the
         // state at the last (the step's end) is kept.
-        let mut end = ModalState::zeros(n);
         reset(pf, nc * (s + 1));
         reset(pdf, nc * (s + 1));
         for i in 0..=s {
             let tau = if i < s { self.scheme.c[i] * h } else { h };
-            free.state_with_kernels(&self.dynamics, t0 + tau, &kernels.free[i * n..(i + 1) * n], &mut end);
+            free.state_with_kernels(&self.dynamics, t0 + tau, &kernels.free[i * n..(i + 1) * n], end);
             for c in 0..nc {
                 let d = &self.contacts[c].d;
                 pf[c * (s + 1) + i] = d.dot(&end.q) - self.contacts[c].gap;
@@ -775,24 +806,24 @@ impl ForceCollocation {
         // The converged nodes: coordinates, dissipated power.
         mp.mul_to(f, p);
         mv.mul_to(f, pd);
-        let mut force = Vec::with_capacity(nc);
-        let mut dissipation = Vec::with_capacity(nc);
+        force.resize_with(nc, Vec::new);
+        dissipation.resize_with(nc, Vec::new);
         let mut y1 = DVector::zeros(2 * n + 2 * nc);
         for c in 0..nc {
-            let (mut alpha, mut beta) = (vec![0.0; s], vec![0.0; s]);
-            let nodal: Vec<f64> = (0..s).map(|i| f[c * s + i]).collect();
-            let power: Vec<f64> = (0..s)
-                .map(|i| {
-                    let row = c * s + i;
-                    forces.dissipation_rate(c, p[row] + pf[c * (s + 1) + i], pd[row] + pdf[c * (s + 1) + i], f[row])
-                })
-                .collect();
-            self.scheme.monomials(&nodal, &mut alpha);
-            self.scheme.monomials(&power, &mut beta);
+            let (alpha, beta) = (&mut force[c], &mut dissipation[c]);
+            alpha.resize(s, 0.0);
+            beta.resize(s, 0.0);
+            let mut nodal = [0.0; STAGES];
+            let mut power = [0.0; STAGES];
+            for i in 0..s {
+                let row = c * s + i;
+                nodal[i] = f[row];
+                power[i] = forces.dissipation_rate(c, p[row] + pf[c * (s + 1) + i], pd[row] + pdf[c * (s + 1) + i], f[row]);
+            }
+            self.scheme.monomials(&nodal[..s], alpha);
+            self.scheme.monomials(&power[..s], beta);
             y1[2 * n + c] = y0[2 * n + c] + h * (0..s).map(|i| self.scheme.b[i] * nodal[i]).sum::<f64>();
             y1[2 * n + nc + c] = y0[2 * n + nc + c] + h * (0..s).map(|i| self.scheme.b[i] * power[i]).sum::<f64>();
-            force.push(alpha);
-            dissipation.push(beta);
         }
         // The end state: free motion plus every mode's response.
         for j in 0..n {
@@ -871,7 +902,7 @@ impl ForceCollocation {
         if !error.is_finite() || !y1.iter().all(|x| x.is_finite()) {
             return Err(NewtonFailure);
         }
-        Ok(Attempt { y1, step: Step { t0, h, y0: y0.clone(), free, force, dissipation }, error })
+        Ok(Attempt { y1, step: Step { t0, h, y0: y0_copy, free, force, dissipation }, error })
     }
 
     /// The integrated state at `t` in the last step under its

@@ -2,8 +2,8 @@
 
 use nalgebra::DVector;
 
-/// The modal state `(q, qd)`.
-#[derive(Clone, Debug, PartialEq)]
+/// The modal state `(q, qd)` (empty by default).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ModalState {
     pub q: DVector<f64>,
     pub qd: DVector<f64>,
