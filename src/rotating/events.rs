@@ -14,6 +14,7 @@ use nalgebra::DVector;
 use super::stepper::Stepper;
 use super::system::{ContactPoint, Phase};
 use crate::contact::{Contact, Watch};
+use crate::solve::extremum::maximize;
 use crate::solve::switch::{first_switch, DenseWatch, SAMPLES};
 
 /// The last accepted step `[t0, t1]` of `solver`, with the state `y0` at its start.
@@ -133,27 +134,13 @@ impl<'a> StepCurve<'a> {
         let ts: Vec<f64> = (0..=SAMPLES).map(|k| if k == SAMPLES { end } else { self.t0 + h * k as f64 / SAMPLES as f64 }).collect();
         let fs: Vec<f64> = ts.iter().map(|&t| f(t)).collect();
         let k = (0..ts.len()).fold(0, |best, i| if fs[i] > fs[best] { i } else { best });
-        let (mut lo, mut hi) = (ts[k.saturating_sub(1)], ts[(k + 1).min(SAMPLES)]);
-        let r = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut x1, mut x2) = (hi - r * (hi - lo), lo + r * (hi - lo));
-        let (mut f1, mut f2) = (f(x1), f(x2));
-        for _ in 0..60 {
-            // A bracket of 1e-8 of the step leaves the value's error at
-            // ~1e-16 of the force's curvature scale.
-            if !(x1 > lo && x2 < hi && x1 < x2) || hi - lo < 1e-8 * h {
-                break;
-            }
-            if f1 >= f2 {
-                (hi, x2, f2) = (x2, x1, f1);
-                x1 = hi - r * (hi - lo);
-                f1 = f(x1);
-            } else {
-                (lo, x1, f1) = (x1, x2, f2);
-                x2 = lo + r * (hi - lo);
-                f2 = f(x2);
-            }
-        }
-        let (t, v) = if f1 >= f2 { (x1, f1) } else { (x2, f2) };
+        let (lo, hi) = (ts[k.saturating_sub(1)], ts[(k + 1).min(SAMPLES)]);
+        // Brent's search from the best sample (its bracket's middle, or
+        // a point inside when it is an end: the peak may lie inside the
+        // first or last interval); a location to 1e-8 of the step leaves
+        // the value's error at ~1e-16 of the force's curvature scale.
+        let (x, fx) = if k == 0 || k == SAMPLES { let x = 0.5 * (lo + hi); (x, f(x)) } else { (ts[k], fs[k]) };
+        let (t, v) = maximize(f, lo, hi, x, fx, 1e-8 * h);
         if v >= fs[k] {
             Some((t, v))
         } else {

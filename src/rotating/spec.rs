@@ -147,7 +147,7 @@ pub struct SolverSpec {
     pub max_events_per_step: u64,
     /// Integration steps allowed within one call to `advance_to`: a bound
     /// on the time one call takes, against runaway work only. Default
-    /// ([`SolverSpec::step_budget`]): about five seconds of steps.
+    /// ([`SolverSpec::step_budget`]): about two seconds of steps.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_steps_per_step: Option<u64>,
 }
@@ -168,18 +168,20 @@ fn default_max_events() -> u64 {
 
 impl SolverSpec {
     /// The integration steps one call may take: `max_steps_per_step`, or
-    /// by default about five seconds of steps at `n_modes` (a DOP853 step
-    /// costs about 0.08 (N+1)^2 us with its event search, 4 us at 6 modes
-    /// and 37 us at 32; a Radau step about ten times that): 1.6 million
-    /// DOP853 steps at 6 modes, 73 000 at 32. The DWZ scene's 0.05 s takes
+    /// by default about two seconds of steps at `n_modes`. A DOP853 step
+    /// with its event search costs at most about 12 + 0.03 (N+1)^2 us
+    /// (DWZ: 4 us at 6 modes, 35 us at 32; contact-heavy random parameters
+    /// up to 16 us at 6), a Radau step about ten times that: 148 000
+    /// DOP853 steps at 6 modes, 44 000 at 32. The DWZ scene's 0.05 s takes
     /// 500 to 2 000 steps at 6 modes, 3 000 to 40 000 at 32 (tolerance
-    /// 1e-4 to 1e-12).
+    /// 1e-4 to 1e-13).
     pub fn step_budget(&self, n_modes: usize) -> u64 {
         self.max_steps_per_step.unwrap_or_else(|| {
-            let per_step = (n_modes as u64 + 1).pow(2);
+            let micros = 12.0 + 0.03 * ((n_modes + 1) * (n_modes + 1)) as f64;
+            let steps = 2e6 / micros;
             match self.method {
-                super::stepper::Method::Dop853 => 80_000_000 / per_step,
-                super::stepper::Method::Radau => 8_000_000 / per_step,
+                super::stepper::Method::Dop853 => steps as u64,
+                super::stepper::Method::Radau => (0.1 * steps) as u64,
             }
         })
     }

@@ -15,6 +15,7 @@ pub mod complex;
 pub mod dop853;
 pub mod elementary;
 pub mod events;
+pub mod extremum;
 pub mod forcing;
 pub mod free;
 pub mod functional;

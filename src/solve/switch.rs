@@ -140,6 +140,10 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     let (mut fa, mut fb) = (f(a).max(0.0), f(b));
     let mut last_width = b - a;
     let mut side = 0i32;
+    // The last point was a probe just inside an end the secant rounded
+    // onto: a function flat at zero (a clamped force) would make the
+    // next probe crawl an ulp at a time, so the next is a bisection.
+    let mut probed_end = false;
     loop {
         let m = 0.5 * (a + b);
         if !(m > a && m < b) {
@@ -159,7 +163,7 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
             if past > a && past < b { past } else { secant }
         } else if secant > a && secant < b {
             secant
-        } else if width > 4.0 * ulps {
+        } else if width > 4.0 * ulps && !probed_end {
             // The secant rounds onto an end (its value at the rounding
             // floor): the zero is within an ulp of it, probed just inside.
             if fa < fb.abs() { a } else { b }
@@ -167,9 +171,15 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
             m
         };
         last_width = width;
-        if width > 4.0 * ulps && (x - a).min(b - x) < ulps {
+        let near_end = width > 4.0 * ulps && (x - a).min(b - x) < ulps;
+        // Never two end probes in a row: bisect instead.
+        let x = if near_end && probed_end { m } else { x };
+        let near_end = near_end && !probed_end;
+        probed_end = false;
+        if near_end {
             // Close to an end: probe just inside it to cut the bracket.
             let inside = if x - a < b - x { a + ulps } else { b - ulps };
+            probed_end = true;
             let fi = f(inside);
             if fi < 0.0 {
                 (b, fb) = (inside, fi);
