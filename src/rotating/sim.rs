@@ -7,11 +7,12 @@
 //! state (the anchor) with options and a first step that depend only on
 //! the anchor, and steps on its own grid (`step(sys, f64::MAX)`):
 //! communication times never shorten a step. A state asked for inside a
-//! step (an output, a switch) is one step of the same method from the
-//! step's start (full order, where the dense output has one order less,
-//! Radau's collocation polynomial two), so results at
-//! a given time do not depend on the communication step, and a restored
-//! run rebuilds the same steps from its anchor (`codec.rs`).
+//! step (an output, a switch) is computed from the step's start by the
+//! same method to full order (where the dense output has one order less,
+//! Radau's collocation polynomial two; in contact, by pieces shrinking
+//! toward it, [`super::stepper::full_order_state`]), so results at a given
+//! time do not depend on the communication step, and a restored run
+//! rebuilds the same steps from its anchor (`codec.rs`).
 //!
 //! **Switches** are located on each accepted step's dense output
 //! ([`super::events`]: samples, interior minima of the gap, bisection);
@@ -29,7 +30,9 @@
 //! `2 pi / sqrt(1.5 K sqrt(p) / m)`, `m = 1 / (g^T J^-1 g)` the tip's
 //! effective mass along the normal (`g` the gap's gradient), `p` the larger
 //! of the anchor's penetration and the deepest one a mass `m` arriving at
-//! the onset speed reaches, `(5 m v0^2 / 4 K)^(2/5)`.
+//! the onset speed reaches, `(5 m v0^2 / 4 K)^(2/5)`. A push starting at
+//! the surface (its force growing as `t^1.5`) takes a first step of
+//! `tol^(2/7)` of that quarter period.
 
 use std::sync::Arc;
 
