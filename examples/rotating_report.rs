@@ -9,7 +9,7 @@
 //!    striking the same plane (1 DOF, RK4 with its own switch location).
 //! 4. Kane-Ryan-Banerjee spin-up: peak tip deflection, first and zeroth order.
 //! 5. Energy drift over 1e4 revolutions of free spin (gravity on, no
-//!    torque, contact or damping; several minutes: `--skip-long` skips it).
+//!    torque, contact or damping; about 15 s: `--skip-long` skips it).
 //!
 //! Writes `report/rotating/` (or `--out DIR`): `dwz_history.csv` (t, theta, tip.w, force),
 //! `modes.csv`, `spin_up.csv` (tip deflection, both orders), `summary.md`
