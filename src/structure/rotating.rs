@@ -458,7 +458,7 @@ impl RotatingBeam {
         }
         let mut terms = ContactTerms::default();
         if let Some((plane, force)) = contact {
-            let tip = self.tip_frame(z, zd, cb);
+            let tip = self.tip_frame(z, zd, cb, (sn, cs));
             let (x, y) = (tip.x, tip.y);
             (terms.penetration, terms.rate) = tip.penetration(thd, plane);
             terms.force = force(terms.penetration, terms.rate);
@@ -487,11 +487,11 @@ impl RotatingBeam {
         Ok(terms)
     }
 
-    /// The tip's floating-frame coordinates and rates; `cb` gets `C_L B`.
-    fn tip_frame(&self, z: &[f64], zd: &[f64], cb: &mut [f64]) -> TipFrame {
+    /// The tip's floating-frame coordinates and rates, `(sn, cs)` the
+    /// sine and cosine of `z[0]`; `cb` gets `C_L B`.
+    fn tip_frame(&self, z: &[f64], zd: &[f64], cb: &mut [f64], (sn, cs): (f64, f64)) -> TipFrame {
         let (b, bd) = (&z[1..], &zd[1..]);
         mat_vec(self.c_tip.as_slice(), b, cb);
-        let (sn, cs) = z[0].sin_cos();
         TipFrame {
             x: self.params.hub_radius + self.params.length - 0.5 * dot(b, cb),
             y: dot(self.w.as_slice(), b),
