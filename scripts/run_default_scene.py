@@ -1,12 +1,15 @@
 #!/usr/bin/env python3
 """The project's main job, run after packaging (scripts/main):
 
-1. validate every FMU in target/fmu with fmpy,
+1. validate every FMU in target/fmu (FMI 2.0) and target/fmu3 (FMI 3.0)
+   with fmpy,
 2. simulate target/fmu/PinnedBeamStop.fmu over its default experiment
-   (output interval = the default step size),
-3. write target/results/PinnedBeamStop_fmpy.csv and a plot
-   target/results/PinnedBeamStop.png (w_stop over time, sticking intervals
-   shaded, impacts marked),
+   (output interval = the default step size), and its FMI 3.0 twin with
+   early return and event mode (a sample just before and just after every
+   event, at the event's own time),
+3. write target/results/PinnedBeamStop_fmpy.csv, PinnedBeamStop_fmi3.csv
+   and a plot target/results/PinnedBeamStop.png (w_stop over time,
+   sticking intervals shaded, impacts marked at the FMI 3.0 samples),
 4. print a short summary.
 
 Exit status 1 if a validation problem is found or the simulation fails.
@@ -30,16 +33,18 @@ from fmpy.validation import validate_fmu  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU_DIR = ROOT / "target" / "fmu"
+FMU3_DIR = ROOT / "target" / "fmu3"
 FMU = FMU_DIR / "PinnedBeamStop.fmu"
+FMU3 = FMU3_DIR / "PinnedBeamStop.fmu"
 RESULTS = ROOT / "target" / "results"
 
 EVENT = re.compile(r"t = ([-+0-9.eE]+): (impact|sticking starts|release)")
 
 
 def validate_all() -> bool:
-    fmus = sorted(FMU_DIR.glob("*.fmu"))
+    fmus = sorted(FMU_DIR.glob("*.fmu")) + sorted(FMU3_DIR.glob("*.fmu"))
     if not fmus:
-        print(f"no FMU in {FMU_DIR}: run `cargo run --release -- package` first", file=sys.stderr)
+        print(f"no FMU in {FMU_DIR}: run `cargo run --release -- package` (and `-- package --fmi3`) first", file=sys.stderr)
         return False
     ok = True
     for fmu in fmus:
@@ -110,10 +115,19 @@ def main(argv: list[str]) -> int:
             print(f"FMU [{category}] {text}", file=sys.stderr)
             ok = False
 
+    # FMI 3.0: early return at every event, the change made in event mode.
+    result3 = simulate_fmu(str(FMU3), start_time=start, stop_time=stop, output_interval=step,
+                           early_return_allowed=True, use_event_mode=True)
+    t3 = result3["time"]
+    at_event = np.flatnonzero(t3[1:] == t3[:-1])
+    impacts3 = [(float(t3[i]), float(result3["w_stop"][i])) for i in at_event if result3["impacts"][i + 1] > result3["impacts"][i]]
+
     results_dir.mkdir(parents=True, exist_ok=True)
     csv_path = results_dir / "PinnedBeamStop_fmpy.csv"
+    csv3_path = results_dir / "PinnedBeamStop_fmi3.csv"
     png_path = results_dir / "PinnedBeamStop.png"
     write_csv(str(csv_path), result)
+    write_csv(str(csv3_path), result3)
 
     events = []
     for _, category, text in messages:
@@ -136,8 +150,8 @@ def main(argv: list[str]) -> int:
         ax2.axvspan(a, b, color="tab:orange", alpha=0.25, lw=0)
     ax.plot(t, w, color="tab:blue", lw=1.0, label="w_stop")
     ax.axhline(d, color="k", lw=0.8, ls="--", label=f"stop (d = {d:g})")
-    if impact_times:
-        ax.plot(impact_times, np.full(len(impact_times), d), "|", color="tab:red", ms=8, label="impacts")
+    if impacts3:
+        ax.plot(*zip(*impacts3), ".", color="tab:red", ms=4, label="impacts (FMI 3.0 early return)")
     ax.set_ylabel("w_stop")
     ax.set_title(f"{md.modelName}: default experiment, {impacts} impacts, sticking {stuck_time:.3f} of {stop - start:g}")
     ax.legend(loc="lower left", fontsize="small")
@@ -152,11 +166,15 @@ def main(argv: list[str]) -> int:
     print(f"FMU:          {FMU}")
     print(f"experiment:   t = {start:g} .. {stop:g}, output interval {step:g} ({len(result)} points)")
     print(f"impacts:      {impacts}")
+    exact = len(impacts3) == len(impact_times) and all(a == b for (a, _), b in zip(impacts3, impact_times))
+    print(f"FMI 3.0:      {len(impacts3)} impacts returned early at their own times "
+          f"({'equal to' if exact else 'DIFFERENT from'} the FMI 2.0 event log), {len(result3)} samples")
+    ok = ok and exact
     print(f"sticking:     {stuck_time:.6f} time units in {len(intervals)} interval(s) (from {source})")
     for a, b in intervals:
         print(f"              [{a:.6f}, {b:.6f}]")
     print(f"max w_stop:   {float(np.max(w)):.3e} (stop at d = {d:g})")
-    print(f"results:      {csv_path}")
+    print(f"results:      {csv_path}, {csv3_path}")
     print(f"plot:         {png_path}")
     return 0 if ok else 1
 

@@ -98,6 +98,16 @@ pub trait Run: Send + fmt::Debug + AnyRun {
     /// first, stopping just before the event's discrete change. A kind
     /// that does not stop at events handles them as [`Self::advance_to`].
     fn advance_to_event(&mut self, t: f64) -> Result<Reached, SimError> {
+        self.advance_until(t, &mut |_| true)
+    }
+    /// Advances to `t` as [`Self::advance_to`] does, except that before
+    /// the discrete change of each event on the way (at time `te`) it asks
+    /// `stop_before(te)`, and stops there just before the change when the
+    /// answer is yes (as [`Self::advance_to_event`]). One call is one
+    /// advance: its work cap covers every event it goes through. A kind
+    /// that does not stop at events handles them as [`Self::advance_to`].
+    fn advance_until(&mut self, t: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
+        let _ = stop_before;
         self.advance_to(t).map(|()| Reached::Time)
     }
     /// Makes the discrete change of the events at the current time (after

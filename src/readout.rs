@@ -13,10 +13,10 @@ pub fn evaluate(key: OutputKey, sim: &Simulation) -> Value {
     match key {
         OutputKey::StopDisplacement(i) => Value::Real(sim.stop_motion(i).0),
         OutputKey::StopVelocity(i) => Value::Real(sim.stop_motion(i).1),
-        OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts as i64),
+        OutputKey::StopImpacts(i) => Value::Integer(sim.state().stops[i].impacts.min(i64::MAX as u64) as i64),
         OutputKey::StopLastImpact(i) => Value::Real(sim.state().stops[i].last_impact),
         OutputKey::StopSticking(i) => Value::Boolean(sim.is_stuck(i)),
-        OutputKey::StopSticks(i) => Value::Integer(sim.state().stops[i].sticks as i64),
+        OutputKey::StopSticks(i) => Value::Integer(sim.state().stops[i].sticks.min(i64::MAX as u64) as i64),
         OutputKey::StopStuckTime(i) => Value::Real(sim.stuck_time(i)),
         OutputKey::StopReaction(i) => Value::Real(sim.reaction(i)),
         OutputKey::StopForce(i) => Value::Real(sim.stop_force(i)),

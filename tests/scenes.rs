@@ -1,8 +1,9 @@
 //! Scene files: every shipped scene loads, bad ones are refused with a
 //! message naming the field, the value and what is allowed, and the
-//! committed modelDescription.xml files are what the generator produces.
+//! committed modelDescription.xml files (FMI 2.0 and 3.0) are what the
+//! generator produces.
 
-use beamstop::fmi2::description::model_description;
+use beamstop::package::FmiVersion;
 use beamstop::{Component, Scene};
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
@@ -20,13 +21,15 @@ fn committed_model_descriptions_are_current() {
     for entry in std::fs::read_dir(format!("{ROOT}/scenes")).unwrap() {
         let path = entry.unwrap().path();
         let scene = Component::from_json(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        let committed_path = format!("{ROOT}/modelDescription/{}.xml", scene.name());
-        let committed = std::fs::read_to_string(&committed_path).unwrap_or_default();
-        assert!(
-            committed == model_description(&scene),
-            "{committed_path} is not what the generator produces for {}: run `cargo run --release -- model-descriptions`",
-            path.display()
-        );
+        for (version, dir) in [(FmiVersion::Fmi2, "modelDescription"), (FmiVersion::Fmi3, "modelDescription/fmi3")] {
+            let committed_path = format!("{ROOT}/{dir}/{}.xml", scene.name());
+            let committed = std::fs::read_to_string(&committed_path).unwrap_or_default();
+            assert!(
+                committed == version.model_description(&scene).unwrap(),
+                "{committed_path} is not what the generator produces for {}: run `cargo run --release -- model-descriptions`",
+                path.display()
+            );
+        }
     }
 }
 

@@ -6,67 +6,21 @@
 #![allow(non_snake_case)]
 #![allow(clippy::missing_safety_doc)]
 
-use std::cell::{Cell, RefCell};
-use std::ffi::CStr;
-use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::Once;
-
 use libc::{c_char, size_t};
 
-use super::instance::{CallResult, Instance, Snapshot};
-use super::logging::Logger;
-use super::resource::resource_dir;
-use super::serialize::{deserialize, serialize};
+use crate::fmi::boundary::{guarded, null_argument as null, run, slice, slice_mut, string, Shell};
+use crate::fmi::instance::{CallResult, Instance, Snapshot};
+use crate::fmi::logging::Logger;
+use crate::fmi::resource::resource_dir;
+use crate::fmi::serialize::{deserialize, serialize};
+
 use super::state_machine::Function;
 use super::types::*;
 
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
-}
-
-thread_local! {
-    /// Set while this thread runs inside an FMI call.
-    static IN_CALL: Cell<bool> = const { Cell::new(false) };
-    /// Where the last panic inside an FMI call happened.
-    static PANIC_LOCATION: RefCell<Option<String>> = const { RefCell::new(None) };
-}
-
-/// The panic hook, installed once: it keeps panics off the host's stderr
-/// (a host that pipes stderr without reading it would block) and only
-/// records where the panic happened; the call's boundary logs one short
-/// message through the instance's logger. The FMU's cdylib carries its own
-/// copy of the Rust runtime, so the hook sees only this library's panics,
-/// and every entry point is guarded. The closure captures nothing: it
-/// allocates nothing that a host's dlclose could leak.
-fn install_panic_hook() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        std::panic::set_hook(Box::new(|info| {
-            if IN_CALL.with(Cell::get) {
-                let location = info.location().map(|l| format!("{}:{}", l.file(), l.line()));
-                PANIC_LOCATION.with(|p| *p.borrow_mut() = location);
-            }
-        }));
-    });
-}
-
-/// Runs `body` inside the panic boundary; `Err` carries the panic's short message.
-fn guarded<T>(body: impl FnOnce() -> T) -> Result<T, String> {
-    install_panic_hook();
-    let outer = IN_CALL.with(|c| c.replace(true));
-    let result = catch_unwind(AssertUnwindSafe(body));
-    IN_CALL.with(|c| c.set(outer));
-    result.map_err(|payload| {
-        let msg = panic_message(payload.as_ref());
-        match PANIC_LOCATION.with(|p| p.borrow_mut().take()) {
-            Some(at) => format!("{msg} (at {at})"),
-            None => msg,
-        }
-    })
+impl Shell for Instance {
+    fn core(&mut self) -> &mut Instance {
+        self
+    }
 }
 
 /// Runs `body` on the instance behind `c` inside the panic boundary.
@@ -77,48 +31,11 @@ fn call(c: fmi2Component, f: Function, body: impl FnOnce(&mut Instance) -> CallR
     // SAFETY: a non-null component is one fmi2Instantiate returned and
     // fmi2FreeInstance has not freed (the caller's obligation).
     let instance = unsafe { &mut *(c as *mut Instance) };
-    // The one check of the state machine table, for every function.
-    match guarded(|| instance.enter(f).and_then(|()| body(&mut *instance))) {
-        Ok(Ok(())) => Status::Ok.raw(),
-        Ok(Err(status)) => status.raw(),
-        Err(msg) => {
-            instance.poison(&format!("{}: internal error: {msg}", f.name()));
-            Status::Error.raw()
-        }
-    }
-}
-
-/// A slice from a C array, `None` if the pointer is NULL with `n > 0`.
-unsafe fn slice<'a, T>(p: *const T, n: size_t) -> Option<&'a [T]> {
-    if n == 0 {
-        Some(&[])
-    } else if p.is_null() {
-        None
-    } else {
-        Some(std::slice::from_raw_parts(p, n))
-    }
-}
-
-unsafe fn slice_mut<'a, T>(p: *mut T, n: size_t) -> Option<&'a mut [T]> {
-    if n == 0 {
-        Some(&mut [])
-    } else if p.is_null() {
-        None
-    } else {
-        Some(std::slice::from_raw_parts_mut(p, n))
-    }
+    run(instance, f, body)
 }
 
 fn null_argument(instance: &Instance, f: Function, what: &str) -> Status {
-    instance.fail(&format!("{}: {what} is NULL", f.name()))
-}
-
-unsafe fn string(p: *const c_char) -> Option<String> {
-    if p.is_null() {
-        None
-    } else {
-        Some(CStr::from_ptr(p).to_string_lossy().into_owned())
-    }
+    null(instance, f, what)
 }
 
 #[no_mangle]
@@ -151,7 +68,12 @@ pub unsafe extern "C" fn fmi2Instantiate(
     }
     let result = guarded(|| -> Result<Instance, (Logger, String)> {
         let name = string(instanceName).unwrap_or_default();
-        let logger = Logger::new(functions.logger, functions.componentEnvironment, &name, loggingOn != FMI2_FALSE);
+        let sink = Fmi2Sink {
+            callback: functions.logger,
+            environment: functions.componentEnvironment,
+            instance_name: std::ffi::CString::new(name.replace('\0', "")).unwrap_or_default(),
+        };
+        let logger = Logger::new(Box::new(sink), loggingOn != FMI2_FALSE);
         if name.is_empty() {
             return Err((logger, "fmi2Instantiate: instanceName is NULL or empty".into()));
         }
@@ -168,7 +90,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             Ok(d) => d,
             Err(m) => return Err((logger, format!("fmi2Instantiate: {m}"))),
         };
-        Instance::new(logger, &guid, &dir)
+        Instance::new("fmi2Instantiate", logger, &guid, &dir)
     });
     match result {
         Ok(Ok(instance)) => Box::into_raw(Box::new(instance)) as fmi2Component,
@@ -206,7 +128,7 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
                 None => return Err(null_argument(i, Function::SetDebugLogging, "a category name")),
             }
         }
-        i.set_debug_logging(loggingOn != FMI2_FALSE, &names)
+        i.set_debug_logging(Function::SetDebugLogging, loggingOn != FMI2_FALSE, &names)
     })
 }
 
@@ -221,28 +143,28 @@ pub extern "C" fn fmi2SetupExperiment(
 ) -> fmi2Status {
     let _ = (toleranceDefined, tolerance);
     call(c, Function::SetupExperiment, |i| {
-        i.setup_experiment(startTime, if stopTimeDefined != FMI2_FALSE { Some(stopTime) } else { None })
+        i.setup_experiment(Function::SetupExperiment, startTime, if stopTimeDefined != FMI2_FALSE { Some(stopTime) } else { None })
     })
 }
 
 #[no_mangle]
 pub extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
-    call(c, Function::EnterInitializationMode, |i| i.enter_initialization_mode())
+    call(c, Function::EnterInitializationMode, |i| i.enter_initialization_mode(Function::EnterInitializationMode))
 }
 
 #[no_mangle]
 pub extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
-    call(c, Function::ExitInitializationMode, |i| i.exit_initialization_mode())
+    call(c, Function::ExitInitializationMode, |i| i.exit_initialization_mode(Function::ExitInitializationMode))
 }
 
 #[no_mangle]
 pub extern "C" fn fmi2Terminate(c: fmi2Component) -> fmi2Status {
-    call(c, Function::Terminate, |i| i.terminate())
+    call(c, Function::Terminate, |i| i.terminate(Function::Terminate))
 }
 
 #[no_mangle]
 pub extern "C" fn fmi2Reset(c: fmi2Component) -> fmi2Status {
-    call(c, Function::Reset, |i| i.reset())
+    call(c, Function::Reset, |i| i.reset(Function::Reset))
 }
 
 #[no_mangle]
@@ -257,7 +179,7 @@ pub unsafe extern "C" fn fmi2GetReal(
         let (Some(vrs), Some(values)) = (slice(vr, nvr), slice_mut(value, nvr)) else {
             return Err(null_argument(i, f, "vr[] or value[]"));
         };
-        i.get_real(vrs, values)
+        i.get_real(f, vrs, values)
     })
 }
 
@@ -273,7 +195,7 @@ pub unsafe extern "C" fn fmi2GetInteger(
         let (Some(vrs), Some(values)) = (slice(vr, nvr), slice_mut(value, nvr)) else {
             return Err(null_argument(i, f, "vr[] or value[]"));
         };
-        i.get_integer(vrs, values)
+        i.get_integer(f, vrs, values)
     })
 }
 
@@ -290,7 +212,7 @@ pub unsafe extern "C" fn fmi2GetBoolean(
             return Err(null_argument(i, f, "vr[] or value[]"));
         };
         let mut flags = vec![false; vrs.len()];
-        i.get_boolean(vrs, &mut flags)?;
+        i.get_boolean(f, vrs, &mut flags)?;
         for (v, b) in values.iter_mut().zip(flags) {
             *v = if b { FMI2_TRUE } else { FMI2_FALSE };
         }
@@ -325,7 +247,7 @@ pub unsafe extern "C" fn fmi2SetReal(
         let (Some(vrs), Some(values)) = (slice(vr, nvr), slice(value, nvr)) else {
             return Err(null_argument(i, f, "vr[] or value[]"));
         };
-        i.set_real(vrs, values)
+        i.set_real(f, vrs, values)
     })
 }
 
@@ -467,7 +389,7 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
-        let snapshot = deserialize(i, bytes).map_err(|m| i.fail(&format!("fmi2DeSerializeFMUstate: {m}")))?;
+        let snapshot = deserialize(i, bytes, false).map_err(|m| i.fail(&format!("fmi2DeSerializeFMUstate: {m}")))?;
         if (*FMUstate).is_null() {
             *FMUstate = Box::into_raw(Box::new(snapshot)) as fmi2FMUstate;
         } else {
@@ -601,7 +523,7 @@ pub extern "C" fn fmi2DoStep(
     noSetFMUStatePriorToCurrentPoint: fmi2Boolean,
 ) -> fmi2Status {
     let _ = noSetFMUStatePriorToCurrentPoint;
-    call(c, Function::DoStep, |i| i.do_step(currentCommunicationPoint, communicationStepSize))
+    call(c, Function::DoStep, |i| i.do_step(Function::DoStep, currentCommunicationPoint, communicationStepSize, false).map(|_| ()))
 }
 
 #[no_mangle]

@@ -7,17 +7,17 @@ use std::fmt::Write;
 
 use crate::component::Component;
 
-use super::logging::CATEGORIES;
+use crate::fmi::logging::CATEGORIES;
 use crate::variables::Unit;
 
-use super::variables::{Causality, VarType, Variability, VariableTable};
+use crate::fmi::variables::{Causality, VarType, Variability, VariableTable};
 
-fn escape(s: &str) -> String {
+pub fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
 /// Shortest round-trip form of a number, as XML wants it.
-fn num(x: f64) -> String {
+pub fn num(x: f64) -> String {
     let s = format!("{x:?}");
     s.strip_suffix(".0").map(str::to_string).unwrap_or(s)
 }
@@ -38,25 +38,7 @@ pub fn model_description(scene: &Component) -> String {
         x,
         r#"  <CoSimulation modelIdentifier="{id}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#
     );
-    let mut units: Vec<Unit> = table.variables.iter().filter(|v| v.ty == VarType::Real).map(|v| v.unit).collect();
-    units.sort();
-    units.dedup();
-    let _ = writeln!(x, "  <UnitDefinitions>");
-    for u in &units {
-        let Some(e) = u.si_exponents() else {
-            // Fractional exponents (N/m^1.5) have no BaseUnit in FMI 2.0.
-            let _ = writeln!(x, r#"    <Unit name="{}"/>"#, escape(u.name()));
-            continue;
-        };
-        let mut attrs = String::new();
-        for (name, exp) in ["kg", "m", "s", "rad"].iter().zip(e) {
-            if exp != 0 {
-                let _ = write!(attrs, r#" {name}="{exp}""#);
-            }
-        }
-        let _ = writeln!(x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, escape(u.name()));
-    }
-    let _ = writeln!(x, "  </UnitDefinitions>");
+    unit_definitions(&mut x, &table, None);
     let _ = writeln!(x, "  <LogCategories>");
     for (name, description) in CATEGORIES {
         let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(description));
@@ -122,4 +104,28 @@ pub fn model_description(scene: &Component) -> String {
     let _ = writeln!(x, "  </ModelStructure>");
     let _ = writeln!(x, "</fmiModelDescription>");
     x
+}
+
+/// The UnitDefinitions of the table's Real variables and `extra` (the same
+/// element in FMI 2.0 and 3.0).
+pub fn unit_definitions(x: &mut String, table: &VariableTable, extra: Option<Unit>) {
+    let mut units: Vec<Unit> = table.variables.iter().filter(|v| v.ty == VarType::Real).map(|v| v.unit).chain(extra).collect();
+    units.sort();
+    units.dedup();
+    let _ = writeln!(*x, "  <UnitDefinitions>");
+    for u in &units {
+        let Some(e) = u.si_exponents() else {
+            // Fractional exponents (N/m^1.5) have no BaseUnit in FMI 2.0.
+            let _ = writeln!(*x, r#"    <Unit name="{}"/>"#, escape(u.name()));
+            continue;
+        };
+        let mut attrs = String::new();
+        for (name, exp) in ["kg", "m", "s", "rad"].iter().zip(e) {
+            if exp != 0 {
+                let _ = write!(attrs, r#" {name}="{exp}""#);
+            }
+        }
+        let _ = writeln!(*x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, escape(u.name()));
+    }
+    let _ = writeln!(*x, "  </UnitDefinitions>");
 }

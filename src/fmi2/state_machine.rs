@@ -2,53 +2,27 @@
 //! lists the states it may be called in (as the Reference FMUs do), and
 //! one check answers for all of them.
 
-/// The states of a co-simulation slave (FMI 2.0.4, section 4.2.4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ModelState {
-    Instantiated = 1 << 0,
-    InitializationMode = 1 << 1,
-    StepComplete = 1 << 2,
-    StepFailed = 1 << 3,
-    StepCanceled = 1 << 4,
-    Terminated = 1 << 5,
-    Error = 1 << 6,
-    Fatal = 1 << 7,
-}
+use crate::fmi::{Call, ModelState};
 
-impl ModelState {
-    pub fn name(self) -> &'static str {
-        match self {
-            ModelState::Instantiated => "Instantiated",
-            ModelState::InitializationMode => "InitializationMode",
-            ModelState::StepComplete => "StepComplete",
-            ModelState::StepFailed => "StepFailed",
-            ModelState::StepCanceled => "StepCanceled",
-            ModelState::Terminated => "Terminated",
-            ModelState::Error => "Error",
-            ModelState::Fatal => "Fatal",
-        }
-    }
-
-    pub fn from_code(code: u8) -> Option<ModelState> {
-        [
-            ModelState::Instantiated,
-            ModelState::InitializationMode,
-            ModelState::StepComplete,
-            ModelState::StepFailed,
-            ModelState::StepCanceled,
-            ModelState::Terminated,
-            ModelState::Error,
-            ModelState::Fatal,
-        ]
-        .into_iter()
-        .find(|s| *s as u8 == code)
+/// The FMI 2.0 name of a state.
+pub fn state_name(state: ModelState) -> &'static str {
+    match state {
+        ModelState::Instantiated => "Instantiated",
+        ModelState::InitializationMode => "InitializationMode",
+        ModelState::StepMode => "StepComplete",
+        ModelState::StepDiscarded => "StepFailed",
+        ModelState::StepCanceled => "StepCanceled",
+        ModelState::Terminated => "Terminated",
+        ModelState::Error => "Error",
+        ModelState::Fatal => "Fatal",
+        ModelState::EventMode => "EventMode (FMI 3.0)",
     }
 }
 
 const INSTANTIATED: u32 = ModelState::Instantiated as u32;
 const INIT: u32 = ModelState::InitializationMode as u32;
-const STEP_COMPLETE: u32 = ModelState::StepComplete as u32;
-const STEP_FAILED: u32 = ModelState::StepFailed as u32;
+const STEP_COMPLETE: u32 = ModelState::StepMode as u32;
+const STEP_FAILED: u32 = ModelState::StepDiscarded as u32;
 const STEP_CANCELED: u32 = ModelState::StepCanceled as u32;
 const TERMINATED: u32 = ModelState::Terminated as u32;
 const ERROR: u32 = ModelState::Error as u32;
@@ -93,6 +67,16 @@ pub enum Function {
     GetStringStatus,
     /// Any Model Exchange function: never allowed in a co-simulation FMU.
     ModelExchange(&'static str),
+}
+
+impl Call for Function {
+    fn name(self) -> &'static str {
+        Function::name(self)
+    }
+
+    fn check(self, state: ModelState) -> Result<(), String> {
+        Function::check(self, state)
+    }
 }
 
 impl Function {
@@ -165,15 +149,12 @@ impl Function {
             }
             Function::CancelStep => "fmi2CancelStep: no step is ever in progress (fmi2DoStep never returns fmi2Pending)".into(),
             f => {
-                let allowed: Vec<&str> = (0..8)
-                    .filter_map(|b| ModelState::from_code(1u8 << b))
-                    .filter(|s| f.allowed() & *s as u32 != 0)
-                    .map(ModelState::name)
-                    .collect();
+                let allowed: Vec<&str> =
+                    ModelState::ALL.into_iter().filter(|s| f.allowed() & *s as u32 != 0).map(state_name).collect();
                 format!(
                     "{}: Illegal call sequence: called in state {}, allowed in {}",
                     f.name(),
-                    state.name(),
+                    state_name(state),
                     allowed.join(", ")
                 )
             }
@@ -187,7 +168,7 @@ mod tests {
 
     #[test]
     fn do_step_only_after_initialization() {
-        assert!(Function::DoStep.check(ModelState::StepComplete).is_ok());
+        assert!(Function::DoStep.check(ModelState::StepMode).is_ok());
         let e = Function::DoStep.check(ModelState::Instantiated).unwrap_err();
         assert!(e.contains("Illegal call sequence") && e.contains("StepComplete"), "{e}");
     }

@@ -32,31 +32,7 @@ pub const FMI2_PENDING_STATUS: fmi2StatusKind = 1;
 pub const FMI2_LAST_SUCCESSFUL_TIME: fmi2StatusKind = 2;
 pub const FMI2_TERMINATED: fmi2StatusKind = 3;
 
-/// `fmi2Status` as a Rust enum, ordered by severity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Status {
-    Ok = 0,
-    Warning = 1,
-    Discard = 2,
-    Error = 3,
-    Fatal = 4,
-}
-
-impl Status {
-    pub fn raw(self) -> fmi2Status {
-        self as fmi2Status
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Status::Ok => "fmi2OK",
-            Status::Warning => "fmi2Warning",
-            Status::Discard => "fmi2Discard",
-            Status::Error => "fmi2Error",
-            Status::Fatal => "fmi2Fatal",
-        }
-    }
-}
+pub use crate::fmi::Status;
 
 pub type fmi2CallbackLogger = Option<
     unsafe extern "C" fn(
@@ -89,4 +65,27 @@ pub struct fmi2EventInfo {
     pub valuesOfContinuousStatesChanged: fmi2Boolean,
     pub nextEventTimeDefined: fmi2Boolean,
     pub nextEventTime: fmi2Real,
+}
+
+/// The importer's fmi2CallbackLogger with its environment and the
+/// instance's name, as the shared logger's sink.
+pub struct Fmi2Sink {
+    pub callback: fmi2CallbackLogger,
+    pub environment: fmi2ComponentEnvironment,
+    pub instance_name: std::ffi::CString,
+}
+
+// The environment pointer is the importer's, only handed back to its logger.
+unsafe impl Send for Fmi2Sink {}
+
+impl crate::fmi::logging::Sink for Fmi2Sink {
+    fn emit(&self, status: Status, category: &str, message: &str) {
+        let Some(callback) = self.callback else { return };
+        // The logger takes a printf format: escape '%'.
+        let text = std::ffi::CString::new(message.replace('%', "%%").replace('\0', "")).unwrap_or_default();
+        let cat = std::ffi::CString::new(category).unwrap_or_default();
+        // SAFETY: the importer promised a valid logger for the instance's
+        // lifetime; every pointer passed is a valid NUL-terminated string.
+        unsafe { callback(self.environment, self.instance_name.as_ptr(), status.raw(), cat.as_ptr(), text.as_ptr()) };
+    }
 }

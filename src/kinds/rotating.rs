@@ -120,6 +120,10 @@ impl Run for RotatingRun {
         self.sim.advance_to_event(t)
     }
 
+    fn advance_until(&mut self, t: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
+        self.sim.advance_until(t, stop_before)
+    }
+
     fn apply_events(&mut self) -> Result<(), SimError> {
         self.sim.apply_pending_events()
     }

@@ -75,13 +75,13 @@ impl RotatingEvent {
     pub fn describe(&self) -> String {
         let t = self.time;
         match self.kind {
-            RotatingEventKind::Onset { speed } => format!("t = {t:.17}: the tip strikes the surface at {speed:e} m/s"),
+            RotatingEventKind::Onset { speed } => format!("t = {t:?}: the tip strikes the surface at {speed:e} m/s"),
             RotatingEventKind::PushEnd { penetration } => {
-                format!("t = {t:.17}: the contact force reaches zero {penetration:e} m inside the surface")
+                format!("t = {t:?}: the contact force reaches zero {penetration:e} m inside the surface")
             }
-            RotatingEventKind::PushResumed => format!("t = {t:.17}: the surface pushes again"),
+            RotatingEventKind::PushResumed => format!("t = {t:?}: the surface pushes again"),
             RotatingEventKind::Separation { peak_force, duration, impulse } => format!(
-                "t = {t:.17}: the tip leaves the surface (peak force {peak_force:e} N, contact {duration:e} s, impulse {impulse:e} N s)"
+                "t = {t:?}: the tip leaves the surface (peak force {peak_force:e} N, contact {duration:e} s, impulse {impulse:e} N s)"
             ),
         }
     }
@@ -377,22 +377,29 @@ impl RotatingSimulation {
 
     /// Advances to `t_end` through every switch on the way (including one at `t_end`).
     pub fn advance_to(&mut self, t_end: f64) -> Result<(), SimError> {
-        self.advance(t_end, false).map(|_| ())
+        self.advance(t_end, None).map(|_| ())
     }
 
     /// Advances to `t_end` or to the next switch before it, stopping there
     /// before the switch ([`Self::apply_pending_events`] makes it). The
     /// switch is part of the step a restore replays: a saved state keeps it.
     pub fn advance_to_event(&mut self, t_end: f64) -> Result<Reached, SimError> {
-        self.advance(t_end, true)
+        self.advance(t_end, Some(&mut |_| true))
+    }
+
+    /// Advances to `t_end`, stopping just before a switch where
+    /// `stop_before(te)` says so; every other switch is made. One advance:
+    /// one work cap.
+    pub fn advance_until(&mut self, t_end: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
+        self.advance(t_end, Some(stop_before))
     }
 
     /// Makes the switch at the current time (after [`Reached::Event`]).
     pub fn apply_pending_events(&mut self) -> Result<(), SimError> {
-        self.advance(self.time, false).map(|_| ())
+        self.advance(self.time, None).map(|_| ())
     }
 
-    fn advance(&mut self, t_end: f64, stop_before_events: bool) -> Result<Reached, SimError> {
+    fn advance(&mut self, t_end: f64, mut stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
         if !t_end.is_finite() {
             return Err(SimError::NonFinite { what: "requested time", value: t_end });
         }
@@ -426,7 +433,7 @@ impl RotatingSimulation {
             let s = self.step.as_ref().expect("a step");
             let (t1, switch) = (s.t1, s.switch);
             match switch {
-                Some((te, _, _)) if te <= t_end && stop_before_events => {
+                Some((te, _, _)) if te <= t_end && stop_before.as_mut().is_some_and(|f| f(te)) => {
                     self.pass_to(te);
                     self.current = self.state_at(te);
                     return Ok(Reached::Event(te));

@@ -209,8 +209,22 @@ impl Simulation {
         // An integrated phase rebuilds its steps from the anchor.
         let reach = sim.state.scan.max(sim.state.time);
         sim.replay_to(reach)?;
-        if let Segment::Integrated(seg) = &mut sim.segment {
-            seg.settle_at(sim.state.time);
+        let time = sim.state.time;
+        let integrated = matches!(sim.segment, Segment::Integrated(_));
+        if integrated && sim.state.scan < time {
+            // Stopped just before a switch, in the switch's own state: the
+            // search finds it again from the saved position.
+            let from = sim.state.scan;
+            let found = sim.integrated_search(time, &mut 0)?;
+            sim.state.scan = from;
+            if found.map(|f| f.time) != Some(time) {
+                return Err(SimError::Integration {
+                    time,
+                    message: format!("simulation state: no switch at this time from the search position {from}, where the state says the run stopped before one"),
+                });
+            }
+        } else if let Segment::Integrated(seg) = &mut sim.segment {
+            seg.settle_at(time);
         }
         Ok(sim)
     }
@@ -270,7 +284,7 @@ impl Simulation {
     /// Advances to `t_end`, handling every event on the way (including one
     /// exactly at `t_end`).
     pub fn advance_to(&mut self, t_end: f64) -> Result<(), SimError> {
-        self.advance(t_end, false).map(|_| ())
+        self.advance(t_end, None).map(|_| ())
     }
 
     /// Advances to `t_end` or to the next event that changes the state or
@@ -278,16 +292,23 @@ impl Simulation {
     /// just before it; [`Self::apply_pending_events`] makes it). The events
     /// are found again from the state alone, so a saved state keeps them.
     pub fn advance_to_event(&mut self, t_end: f64) -> Result<Reached, SimError> {
-        self.advance(t_end, true)
+        self.advance(t_end, Some(&mut |_| true))
+    }
+
+    /// Advances to `t_end`, stopping just before the change of an event
+    /// where `stop_before(te)` says so (as [`Self::advance_to_event`]);
+    /// every other event is handled. One advance: one work cap.
+    pub fn advance_until(&mut self, t_end: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
+        self.advance(t_end, Some(stop_before))
     }
 
     /// Makes the change of the events at the current time (after
     /// [`Reached::Event`]); nothing otherwise.
     pub fn apply_pending_events(&mut self) -> Result<(), SimError> {
-        self.advance(self.state.time, false).map(|_| ())
+        self.advance(self.state.time, None).map(|_| ())
     }
 
-    fn advance(&mut self, t_end: f64, stop_before_events: bool) -> Result<Reached, SimError> {
+    fn advance(&mut self, t_end: f64, stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
         if t_end < self.state.time {
             return Err(SimError::Backwards { now: self.state.time, requested: t_end });
         }
@@ -297,7 +318,7 @@ impl Simulation {
             }
         }
         let mut buffers = self.scratch.take().unwrap_or_else(|| ProbeBuffers::new(&self.dynamics));
-        let result = self.advance_with(t_end, &mut buffers, stop_before_events);
+        let result = self.advance_with(t_end, &mut buffers, stop_before);
         self.scratch = Some(buffers);
         result
     }

@@ -47,15 +47,15 @@ impl Event {
         let name = model.stops[self.stop()].name.as_str();
         match &self.kind {
             EventKind::Impact { speed, restitution, energy_lost, chatter, .. } => format!(
-                "t = {t:.17}: impact at stop '{name}', approach speed {speed:.6e}, R = {restitution}, energy lost {energy_lost:.6e}{}",
+                "t = {t:?}: impact at stop '{name}', approach speed {speed:.6e}, R = {restitution}, energy lost {energy_lost:.6e}{}",
                 if *chatter { " (chatter detected: final R = 0 impact)" } else { "" }
             ),
-            EventKind::Stick { reaction, .. } => format!("t = {t:.17}: sticking starts at stop '{name}', reaction {reaction:.6e}"),
-            EventKind::Release { .. } => format!("t = {t:.17}: release from stop '{name}' (reaction changed sign)"),
-            EventKind::Graze { .. } => format!("t = {t:.17}: grazing contact at stop '{name}' (zero velocity, no impact)"),
-            EventKind::Contact { speed, .. } => format!("t = {t:.17}: contact starts at stop '{name}', approach speed {speed:.6e}"),
+            EventKind::Stick { reaction, .. } => format!("t = {t:?}: sticking starts at stop '{name}', reaction {reaction:.6e}"),
+            EventKind::Release { .. } => format!("t = {t:?}: release from stop '{name}' (reaction changed sign)"),
+            EventKind::Graze { .. } => format!("t = {t:?}: grazing contact at stop '{name}' (zero velocity, no impact)"),
+            EventKind::Contact { speed, .. } => format!("t = {t:?}: contact starts at stop '{name}', approach speed {speed:.6e}"),
             EventKind::Separation { penetration, .. } => {
-                format!("t = {t:.17}: contact ends at stop '{name}' (force zero), penetration left {penetration:.6e}")
+                format!("t = {t:?}: contact ends at stop '{name}' (force zero), penetration left {penetration:.6e}")
             }
         }
     }

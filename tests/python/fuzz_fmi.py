@@ -4,7 +4,9 @@ corrupted serialized states, through ctypes on the FMU's shared library.
     python tests/python/fuzz_fmi.py --fmu target/fmu/PinnedBeamStop.fmu --seed 1 --calls 100000
 
 (the long run; tests/python/test_fuzz.py runs a bounded one over every FMU
-in CI). Each run prints a JSON summary: calls made, corrupted states tried,
+in CI). `--fmi 3` fuzzes an FMI 3.0 FMU (target/fmu3/*.fmu) through its
+fmi3 functions instead: tests/python/fuzz_fmi3.py, which shares this
+file's helpers. Each run prints a JSON summary: calls made, corrupted states tried,
 the longest single call, and every broken promise with the seed and call
 index that reproduce it. Promises checked after every call:
 
@@ -44,6 +46,9 @@ STEP_COMPLETE, STEP_FAILED, READABLE = "stepComplete", "stepFailed", ("init", "s
 
 
 class Harness:
+    # The statuses a call may return (FMI 3.0 has no Pending).
+    LEGAL = (OK, WARNING, DISCARD, ERROR, FATAL, PENDING)
+
     def __init__(self, fmu: str, seed: int):
         self.rng = random.Random(seed)
         self.seed = seed
@@ -137,7 +142,7 @@ class Harness:
             self.longest = (dt, what)
         if dt > LIMIT:
             self.broken.append(f"seed {self.seed} call {self.calls}: {what} took {dt:.1f} s")
-        if f.restype is c_int and r not in (OK, WARNING, DISCARD, ERROR, FATAL, PENDING):
+        if f.restype is c_int and r not in self.LEGAL:
             self.broken.append(f"seed {self.seed} call {self.calls}: {what} returned {r}")
         return r
 
@@ -378,8 +383,14 @@ def main():
     ap.add_argument("--fmu", required=True)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--calls", type=int, default=10000)
+    ap.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="the FMI version of the FMU (default 2)")
     a = ap.parse_args()
-    print(json.dumps(Harness(a.fmu, a.seed).run(a.calls)))
+    if a.fmi == 3:
+        from fuzz_fmi3 import Harness3
+
+        print(json.dumps(Harness3(a.fmu, a.seed).run(a.calls)))
+    else:
+        print(json.dumps(Harness(a.fmu, a.seed).run(a.calls)))
 
 
 if __name__ == "__main__":

@@ -1,10 +1,11 @@
 //! The beamstop command line.
 //!
-//!   beamstop package [scene.json ...]   build FMUs into target/fmu (default: every scene in scenes/)
+//!   beamstop package [--fmi3] [scene.json ...]
+//!                                        build FMUs into target/fmu (FMI 3.0: target/fmu3; default: every scene in scenes/)
 //!   beamstop run [scene.json] [--stop T] [--step H] [--out DIR]
 //!                                        simulate a scene natively, write CSV results
-//!   beamstop describe scene.json         print the modelDescription.xml of a scene
-//!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml for scenes/
+//!   beamstop describe [--fmi3] scene.json  print the modelDescription.xml of a scene
+//!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml (FMI 3.0: modelDescription/fmi3/) for scenes/
 //!   beamstop check scene.json ...        validate scenes
 //!   beamstop modes SUPPORT N [X ...]     dimensionless beam modes as JSON
 //!   beamstop measure CONFIG.json         timed runs and results for the report (JSON out)
@@ -12,18 +13,20 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use beamstop::fmi2::description::model_description;
-use beamstop::package::{library_beside_executable, write_fmu};
+use beamstop::package::{library_beside_executable, write_fmu, FmiVersion};
 use beamstop::kind::Run;
 use beamstop::variables::Value;
 use beamstop::Component;
 
 const USAGE: &str = "usage:
-  beamstop package [scene.json ...]      build FMUs into target/fmu (default: every scene in scenes/)
+  beamstop package [--fmi3] [scene.json ...]
+                                          build FMI 2.0 FMUs into target/fmu, with --fmi3 FMI 3.0 FMUs into
+                                          target/fmu3 (default: every scene in scenes/)
   beamstop run [scene.json] [--stop T] [--step H] [--out DIR]
                                           simulate a scene natively (default: scenes/pinned_beam.json)
-  beamstop describe scene.json           print the scene's modelDescription.xml
-  beamstop model-descriptions            rewrite modelDescription/<Name>.xml for every scene in scenes/
+  beamstop describe [--fmi3] scene.json  print the scene's modelDescription.xml (FMI 2.0, or 3.0)
+  beamstop model-descriptions            rewrite modelDescription/<Name>.xml (FMI 2.0) and
+                                          modelDescription/fmi3/<Name>.xml for every scene in scenes/
   beamstop check scene.json ...          validate scene files
   beamstop modes SUPPORT N [X ...]       beta_j and W_j(X), W_j''(X) of the unit-mean-square shapes
                                           (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)
@@ -51,14 +54,25 @@ fn builtin_scenes() -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
+/// The standard an `--fmi3` among the arguments asks for, and the rest.
+fn version(args: &[String]) -> (FmiVersion, Vec<String>) {
+    let fmi3 = args.iter().any(|a| a == "--fmi3");
+    let rest = args.iter().filter(|a| *a != "--fmi3").cloned().collect();
+    (if fmi3 { FmiVersion::Fmi3 } else { FmiVersion::Fmi2 }, rest)
+}
+
 fn package(args: &[String]) -> Result<(), String> {
+    let (version, args) = version(args);
     let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
     // Validate everything first: no FMU is written from an invalid scene.
     let scenes: Vec<Component> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
     let binary = library_beside_executable("beamstop_fmu")?;
-    let out = root().join("target").join("fmu");
+    let out = root().join("target").join(match version {
+        FmiVersion::Fmi2 => "fmu",
+        FmiVersion::Fmi3 => "fmu3",
+    });
     for scene in &scenes {
-        let path = write_fmu(scene, &binary, &out)?;
+        let path = write_fmu(scene, &binary, &out, version)?;
         println!("{}", path.display());
     }
     Ok(())
@@ -184,18 +198,19 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("package") => package(&args[1..]),
         Some("run") => run(&args[1..]),
-        Some("describe") => match args.get(1) {
-            Some(f) => load(Path::new(f)).map(|s| print!("{}", model_description(&s))),
-            None => Err(USAGE.into()),
+        Some("describe") => match version(&args[1..]) {
+            (version, rest) if rest.len() == 1 => load(Path::new(&rest[0])).and_then(|s| version.model_description(&s)).map(|x| print!("{x}")),
+            _ => Err(USAGE.into()),
         },
         Some("model-descriptions") => builtin_scenes().and_then(|files| {
-            let dir = root().join("modelDescription");
-            std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-            for f in files {
-                let scene = load(&f)?;
-                let path = dir.join(format!("{}.xml", scene.name()));
-                std::fs::write(&path, model_description(&scene)).map_err(|e| format!("{}: {e}", path.display()))?;
-                println!("{}", path.display());
+            for (version, dir) in [(FmiVersion::Fmi2, root().join("modelDescription")), (FmiVersion::Fmi3, root().join("modelDescription").join("fmi3"))] {
+                std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+                for f in &files {
+                    let scene = load(f)?;
+                    let path = dir.join(format!("{}.xml", scene.name()));
+                    std::fs::write(&path, version.model_description(&scene)?).map_err(|e| format!("{}: {e}", path.display()))?;
+                    println!("{}", path.display());
+                }
             }
             Ok(())
         }),

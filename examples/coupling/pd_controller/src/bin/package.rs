@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use beamstop::component::Component;
-use beamstop::package::{library_beside_executable, write_fmu};
+use beamstop::package::{library_beside_executable, write_fmu, FmiVersion};
 use pd_controller_fmu::PdKind;
 
 fn main() -> ExitCode {
@@ -17,7 +17,7 @@ fn main() -> ExitCode {
         .and_then(|text| Component::of_kind(&PdKind, &text))
         .and_then(|scene| {
             let binary = library_beside_executable("pd_controller_fmu")?;
-            write_fmu(&scene, &binary, &out)
+            write_fmu(&scene, &binary, &out, FmiVersion::Fmi2)
         });
     match result {
         Ok(path) => {

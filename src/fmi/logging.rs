@@ -1,11 +1,11 @@
 //! Messages to the importer through its logger callback, filtered by the
-//! categories declared in modelDescription.xml.
+//! categories declared in modelDescription.xml. The callback's shape is
+//! the shell's ([`Sink`]); the filtering is shared.
 
-use std::ffi::CString;
+use super::state::Status;
 
-use super::types::{fmi2CallbackLogger, fmi2ComponentEnvironment, Status};
-
-/// The log categories this FMU declares, with their descriptions.
+/// The log categories this FMU declares, with their descriptions (in FMI
+/// 2.0 words; the FMI 3.0 modelDescription.xml says fmi3 for fmi2).
 pub const CATEGORIES: [(&str, &str); 6] = [
     ("logEvents", "Impacts, chatter ends, sticking and release, with their exact times"),
     ("logStatusWarning", "Messages with status fmi2Warning"),
@@ -15,36 +15,27 @@ pub const CATEGORIES: [(&str, &str); 6] = [
     ("logAll", "Each call that changes the instance state"),
 ];
 
+/// The importer's logger callback, as one standard calls it.
+pub trait Sink: Send {
+    fn emit(&self, status: Status, category: &str, message: &str);
+}
+
 pub struct Logger {
-    callback: fmi2CallbackLogger,
-    environment: fmi2ComponentEnvironment,
-    instance_name: CString,
+    sink: Box<dyn Sink>,
     /// One flag per entry of `CATEGORIES`.
     enabled: [bool; CATEGORIES.len()],
 }
-
-// The environment pointer is the importer's, only handed back to its logger.
-unsafe impl Send for Logger {}
 
 fn index(category: &str) -> Option<usize> {
     CATEGORIES.iter().position(|(c, _)| *c == category)
 }
 
 impl Logger {
-    pub fn new(callback: fmi2CallbackLogger, environment: fmi2ComponentEnvironment, instance_name: &str, on: bool) -> Self {
-        Logger {
-            callback,
-            environment,
-            instance_name: CString::new(instance_name.replace('\0', "")).unwrap_or_default(),
-            enabled: [on; CATEGORIES.len()],
-        }
+    pub fn new(sink: Box<dyn Sink>, on: bool) -> Self {
+        Logger { sink, enabled: [on; CATEGORIES.len()] }
     }
 
-    pub fn instance_name(&self) -> &str {
-        self.instance_name.to_str().unwrap_or("")
-    }
-
-    /// fmi2SetDebugLogging: `categories` empty means all of them.
+    /// SetDebugLogging: `categories` empty means all of them.
     pub fn set_categories(&mut self, on: bool, categories: &[String]) -> Result<(), String> {
         if categories.is_empty() {
             self.enabled = [on; CATEGORIES.len()];
@@ -56,7 +47,7 @@ impl Logger {
                 Some(i) => indices.push(i),
                 None => {
                     let known: Vec<&str> = CATEGORIES.iter().map(|(c, _)| *c).collect();
-                    return Err(format!("fmi2SetDebugLogging: unknown log category {c:?}; known: {}", known.join(", ")));
+                    return Err(format!("unknown log category {c:?}; known: {}", known.join(", ")));
                 }
             }
         }
@@ -83,29 +74,19 @@ impl Logger {
     }
 
     /// Logs a status message: errors always reach the importer (the
-    /// standard expects the logger to have explained any fmi2Error),
-    /// the rest only when their category is enabled.
+    /// standard expects the logger to have explained any Error), the rest
+    /// only when their category is enabled.
     pub fn status(&self, status: Status, message: &str) {
         let category = Self::category_for(status);
         if status >= Status::Error || self.wants(category) {
-            self.emit(status, category, message);
+            self.sink.emit(status, category, message);
         }
     }
 
     /// Logs in a category if it is enabled.
     pub fn category(&self, category: &str, message: &str) {
         if self.wants(category) {
-            self.emit(Status::Ok, category, message);
+            self.sink.emit(Status::Ok, category, message);
         }
-    }
-
-    fn emit(&self, status: Status, category: &str, message: &str) {
-        let Some(callback) = self.callback else { return };
-        // The logger takes a printf format: escape '%'.
-        let text = CString::new(message.replace('%', "%%").replace('\0', "")).unwrap_or_default();
-        let cat = CString::new(category).unwrap_or_default();
-        // SAFETY: the importer promised a valid logger for the instance's
-        // lifetime; every pointer passed is a valid NUL-terminated string.
-        unsafe { callback(self.environment, self.instance_name.as_ptr(), status.raw(), cat.as_ptr(), text.as_ptr()) };
     }
 }

@@ -1,8 +1,10 @@
-//! fmi2SerializeFMUstate: a versioned, self-describing byte format that
-//! restores in another process (never a copy of a struct with pointers).
+//! SerializeFMUstate of both standards: a versioned, self-describing byte
+//! format that restores in another process (never a copy of a struct with
+//! pointers).
 //!
 //! Layout (little endian): magic `BEAMSTOP`, format version (u32), GUID
-//! (u32 length + UTF-8), then the snapshot field by field. The solver state
+//! (u32 length + UTF-8; FMI 3.0's instantiation token is the same string),
+//! then the snapshot field by field. The solver state
 //! is stored as its defining numbers (anchor, phase, search position,
 //! counters); everything derived from them is rebuilt on restore, so a
 //! restored instance continues bit for bit like the original.
@@ -10,23 +12,26 @@
 use crate::codec::{Reader, Writer};
 
 use super::instance::{Instance, Snapshot};
-use super::state_machine::ModelState;
+use super::state::ModelState;
 
 const MAGIC: &[u8; 8] = b"BEAMSTOP";
 /// Version 2: the simulation writes its own state (with its own version)
-/// and every restored state is validated.
-pub const FORMAT_VERSION: u32 = 2;
+/// and every restored state is validated. Version 3: the instance state
+/// as a u32 (FMI 3.0's event mode), and whether an event's discrete
+/// change is pending.
+pub const FORMAT_VERSION: u32 = 3;
 
 pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
     let mut w = Writer(Vec::new());
     w.0.extend_from_slice(MAGIC);
     w.u32(FORMAT_VERSION);
     w.str(guid);
-    w.u8(s.machine as u8);
+    w.u32(s.machine.code() as u32);
     w.f64(s.start_time);
     w.opt_f64(s.stop_time);
     w.f64(s.last_successful_time);
     w.u8(s.terminated as u8);
+    w.u8(s.pending as u8);
     w.f64s(&s.parameters);
     w.f64s(&s.inputs);
     match &s.sim {
@@ -41,9 +46,10 @@ pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
 
 /// Reads a state written by [`serialize`] for this instance and checks it
 /// as strictly as a state reached by set calls: a machine state that may
-/// be restored, finite times, parameters and inputs within their ranges,
-/// and a simulation state the model can be in.
-pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String> {
+/// be restored (event mode and a pending event only where `event_mode`,
+/// the FMI 3.0 shell), finite times, parameters and inputs within their
+/// ranges, and a simulation state the model can be in.
+pub fn deserialize(instance: &Instance, bytes: &[u8], event_mode: bool) -> Result<Snapshot, String> {
     let mut r = Reader::new(bytes);
     if r.take(MAGIC.len())? != MAGIC {
         return Err("not a beamstop FMU state (bad magic)".into());
@@ -56,25 +62,39 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     if guid != instance.guid() {
         return Err(format!("serialized state belongs to FMU {guid}, not to this one ({})", instance.guid()));
     }
-    let code = r.u8()?;
-    let machine = ModelState::from_code(code).ok_or_else(|| format!("serialized state: unknown instance state {code}"))?;
+    let code = r.u32()?;
+    let machine = u16::try_from(code)
+        .ok()
+        .and_then(ModelState::from_code)
+        .ok_or_else(|| format!("serialized state: unknown instance state {code}"))?;
     let start_time = r.f64()?;
     let stop_time = r.opt_f64()?;
     let last_successful_time = r.f64()?;
     let terminated = r.u8()? != 0;
+    let pending = match r.u8()? {
+        0 => false,
+        1 => true,
+        b => return Err(format!("serialized state: pending-event flag {b}: must be 0 or 1")),
+    };
     let table = instance.table();
     let parameters = r.f64s(table.interface.parameters.len(), "parameters")?;
     let inputs = r.f64s(table.interface.inputs.len(), "inputs")?;
     let has_sim = r.u8()? != 0;
+    if !event_mode && (machine == ModelState::EventMode || pending) {
+        return Err("serialized state: saved by the FMI 3.0 interface in event mode or with an event pending; the FMI 2.0 interface cannot restore it".into());
+    }
+    if pending && !matches!(machine, ModelState::StepMode | ModelState::EventMode) {
+        return Err(format!("serialized state: an event pending in instance state {machine:?}"));
+    }
     match machine {
         ModelState::Error | ModelState::Fatal => {
-            return Err(format!("serialized state: instance state {} cannot be restored", machine.name()));
+            return Err(format!("serialized state: instance state {machine:?} cannot be restored"));
         }
         ModelState::Instantiated | ModelState::InitializationMode if has_sim => {
-            return Err(format!("serialized state: instance state {} with a running simulation", machine.name()));
+            return Err(format!("serialized state: instance state {machine:?} with a running simulation"));
         }
-        ModelState::StepComplete | ModelState::StepFailed | ModelState::StepCanceled | ModelState::Terminated if !has_sim => {
-            return Err(format!("serialized state: instance state {} without a simulation", machine.name()));
+        ModelState::StepMode | ModelState::EventMode | ModelState::StepDiscarded | ModelState::StepCanceled | ModelState::Terminated if !has_sim => {
+            return Err(format!("serialized state: instance state {machine:?} without a simulation"));
         }
         _ => {}
     }
@@ -111,5 +131,5 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     if r.remaining() != 0 {
         return Err(format!("serialized state has {} trailing bytes", r.remaining()));
     }
-    Ok(Snapshot { machine, parameters, inputs, start_time, stop_time, sim, last_successful_time, terminated })
+    Ok(Snapshot { machine, parameters, inputs, start_time, stop_time, sim, last_successful_time, terminated, pending })
 }

@@ -1,22 +1,23 @@
-//! One FMU instance: the FMI semantics of every call, in safe Rust.
+//! One FMU instance: the FMI semantics of every call, in safe Rust, for
+//! both standards.
 //!
-//! The C entry points (`api.rs`) check the state machine table once, then
-//! translate pointers and call these methods. Bad arguments get
-//! fmi2Error with a message naming the variable, the value and what is
-//! allowed, and leave the instance as it was.
+//! A shell's C entry points check their state-machine table once, then
+//! translate pointers and call these methods with the function they serve
+//! (its name starts every message). Bad arguments get an Error status with
+//! a message naming the variable, the value and what is allowed, and leave
+//! the instance as it was.
 
 use std::path::Path;
 
 use crate::component::Component;
-use crate::kind::{EventRecord, Run};
+use crate::kind::{EventRecord, Reached, Run};
 use crate::variables::Value;
 
 use super::logging::Logger;
-use super::state_machine::{Function, ModelState};
-use super::types::Status;
+use super::state::{Call, ModelState, Status};
 use super::variables::{Binding, VarType, Variable, VariableTable};
 
-/// Everything an FMU state snapshot holds (fmi2GetFMUstate): a deep copy.
+/// Everything an FMU state snapshot holds (GetFMUstate): a deep copy.
 #[derive(Clone, Debug)]
 pub struct Snapshot {
     pub machine: ModelState,
@@ -28,6 +29,9 @@ pub struct Snapshot {
     pub sim: Option<Box<dyn Run>>,
     pub last_successful_time: f64,
     pub terminated: bool,
+    /// The run stands just before an event's discrete change, which the
+    /// importer makes in event mode (FMI 3.0's UpdateDiscreteStates).
+    pub pending: bool,
 }
 
 pub struct Instance {
@@ -44,11 +48,22 @@ pub struct Instance {
     stop_time: Option<f64>,
     sim: Option<Box<dyn Run>>,
     /// In initialization mode, a simulation built from the current values
-    /// to answer fmi2GetReal on outputs, or why it cannot be built (kept so
+    /// to answer output reads, or why it cannot be built (kept so
     /// that a failure is not recomputed at every read); cleared by any set.
     provisional: Option<Result<Box<dyn Run>, String>>,
     last_successful_time: f64,
     terminated: bool,
+    /// See [`Snapshot::pending`].
+    pending: bool,
+}
+
+/// How a step ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepEnd {
+    /// At the requested time, every event on the way handled.
+    Done,
+    /// Just before the discrete change of an event at this time.
+    Event(f64),
 }
 
 /// A failed call: the status to return (the message is already logged).
@@ -60,24 +75,25 @@ pub type CallResult<T = ()> = Result<T, Status>;
 pub const MAX_TIME_RESOLUTION: f64 = 1e-6;
 
 impl Instance {
-    /// fmi2Instantiate after the pointer checks: reads the scene from the
-    /// resources and checks the GUID.
-    pub fn new(logger: Logger, guid: &str, resources: &Path) -> Result<Instance, (Logger, String)> {
+    /// Instantiate after the pointer checks (`name`: the function): reads
+    /// the scene from the resources and checks the GUID (FMI 3.0: the
+    /// instantiation token).
+    pub fn new(name: &str, logger: Logger, guid: &str, resources: &Path) -> Result<Instance, (Logger, String)> {
         let file = resources.join("scene.json");
         let text = match std::fs::read_to_string(&file) {
             Ok(t) => t,
-            Err(e) => return Err((logger, format!("fmi2Instantiate: cannot read the scene {}: {e}", file.display()))),
+            Err(e) => return Err((logger, format!("{name}: cannot read the scene {}: {e}", file.display()))),
         };
         let scene = match Component::from_json(&text) {
             Ok(s) => s,
-            Err(e) => return Err((logger, format!("fmi2Instantiate: invalid scene {}: {e}", file.display()))),
+            Err(e) => return Err((logger, format!("{name}: invalid scene {}: {e}", file.display()))),
         };
         let expected = scene.guid();
         if guid != expected {
             return Err((
                 logger,
                 format!(
-                    "fmi2Instantiate: GUID {guid} does not match this FMU ({expected}); the modelDescription.xml and the binary come from different builds"
+                    "{name}: GUID {guid} does not match this FMU ({expected}); the modelDescription.xml and the binary come from different builds"
                 ),
             ));
         }
@@ -97,6 +113,7 @@ impl Instance {
             provisional: None,
             last_successful_time: 0.0,
             terminated: false,
+            pending: false,
         })
     }
 
@@ -108,8 +125,18 @@ impl Instance {
         &self.table
     }
 
-    /// Checks the state machine table; logs an illegal call.
-    pub fn enter(&self, f: Function) -> CallResult {
+    pub fn machine(&self) -> ModelState {
+        self.machine
+    }
+
+    /// A transition the shell's standard defines (the core makes the
+    /// transitions both standards share).
+    pub fn set_machine(&mut self, state: ModelState) {
+        self.machine = state;
+    }
+
+    /// Checks the shell's state machine table; logs an illegal call.
+    pub fn enter<F: Call>(&self, f: F) -> CallResult {
         f.check(self.machine).map_err(|m| self.fail(&m))
     }
 
@@ -129,8 +156,8 @@ impl Instance {
         self.logger.category("logAll", message);
     }
 
-    pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> CallResult {
-        self.logger.set_categories(on, categories).map_err(|m| self.fail(&m))?;
+    pub fn set_debug_logging<F: Call>(&mut self, f: F, on: bool, categories: &[String]) -> CallResult {
+        self.logger.set_categories(on, categories).map_err(|m| self.fail(&format!("{}: {m}", f.name())))?;
         self.sync_event_recording();
         Ok(())
     }
@@ -143,13 +170,14 @@ impl Instance {
         }
     }
 
-    pub fn setup_experiment(&mut self, start: f64, stop: Option<f64>) -> CallResult {
+    pub fn setup_experiment<F: Call>(&mut self, f: F, start: f64, stop: Option<f64>) -> CallResult {
+        let name = f.name();
         if !start.is_finite() {
-            return Err(self.fail(&format!("fmi2SetupExperiment: startTime = {start}: must be finite")));
+            return Err(self.fail(&format!("{name}: startTime = {start}: must be finite")));
         }
         if let Some(stop) = stop {
             if !(stop >= start) || !stop.is_finite() {
-                return Err(self.fail(&format!("fmi2SetupExperiment: stopTime = {stop}: must be finite and >= startTime = {start}")));
+                return Err(self.fail(&format!("{name}: stopTime = {stop}: must be finite and >= startTime = {start}")));
             }
         }
         self.start_time = start;
@@ -158,9 +186,9 @@ impl Instance {
         Ok(())
     }
 
-    pub fn enter_initialization_mode(&mut self) -> CallResult {
+    pub fn enter_initialization_mode<F: Call>(&mut self, f: F) -> CallResult {
         self.machine = ModelState::InitializationMode;
-        self.trace("fmi2EnterInitializationMode");
+        self.trace(f.name());
         Ok(())
     }
 
@@ -170,7 +198,9 @@ impl Instance {
         Ok(sim)
     }
 
-    pub fn exit_initialization_mode(&mut self) -> CallResult {
+    /// Builds the run; the instance is then in step mode (a shell that
+    /// starts in event mode moves it there).
+    pub fn exit_initialization_mode<F: Call>(&mut self, f: F) -> CallResult {
         let built = match self.provisional.take() {
             Some(result) => result,
             None => self.build_simulation(),
@@ -178,7 +208,7 @@ impl Instance {
         let mut sim = match built {
             Ok(sim) => sim,
             Err(m) => {
-                let status = self.fail(&format!("fmi2ExitInitializationMode: {m}"));
+                let status = self.fail(&format!("{}: {m}", f.name()));
                 self.provisional = Some(Err(m));
                 return Err(status);
             }
@@ -187,19 +217,20 @@ impl Instance {
         let events = sim.drain_events();
         self.sim = Some(sim);
         self.log_events(&events);
-        self.machine = ModelState::StepComplete;
+        self.machine = ModelState::StepMode;
+        self.pending = false;
         self.last_successful_time = self.start_time;
-        self.trace("fmi2ExitInitializationMode: simulation ready");
+        self.trace(&format!("{}: simulation ready", f.name()));
         Ok(())
     }
 
-    pub fn terminate(&mut self) -> CallResult {
+    pub fn terminate<F: Call>(&mut self, f: F) -> CallResult {
         self.machine = ModelState::Terminated;
-        self.trace("fmi2Terminate");
+        self.trace(f.name());
         Ok(())
     }
 
-    pub fn reset(&mut self) -> CallResult {
+    pub fn reset<F: Call>(&mut self, f: F) -> CallResult {
         self.scene = self.packaged.clone();
         self.inputs.iter_mut().for_each(|u| *u = 0.0);
         self.machine = ModelState::Instantiated;
@@ -209,11 +240,12 @@ impl Instance {
         self.provisional = None;
         self.last_successful_time = 0.0;
         self.terminated = false;
-        self.trace("fmi2Reset: back to Instantiated with the start values");
+        self.pending = false;
+        self.trace(&format!("{}: back to Instantiated with the start values", f.name()));
         Ok(())
     }
 
-    fn variable(&self, f: Function, vr: u32, ty: VarType) -> CallResult<&Variable> {
+    fn variable<F: Call>(&self, f: F, vr: u32, ty: VarType) -> CallResult<&Variable> {
         let Some(v) = self.table.get(vr) else {
             return Err(self.fail(&format!(
                 "{}: value reference {vr} does not exist (this FMU has 0..={})",
@@ -226,16 +258,16 @@ impl Instance {
                 "{}: value reference {vr} ('{}') is {} {}, not {}",
                 f.name(),
                 v.name,
-                if v.ty == VarType::Integer { "an" } else { "a" },
-                v.ty.name(),
-                ty.name()
+                if f.type_name(v.ty).starts_with('I') { "an" } else { "a" },
+                f.type_name(v.ty),
+                f.type_name(ty)
             )));
         }
         Ok(v)
     }
 
     /// The simulation that answers output reads in this state.
-    fn reading_simulation(&mut self, f: Function) -> CallResult<&dyn Run> {
+    fn reading_simulation<F: Call>(&mut self, f: F) -> CallResult<&dyn Run> {
         if self.machine == ModelState::InitializationMode {
             if self.provisional.is_none() {
                 self.provisional = Some(self.build_simulation());
@@ -252,7 +284,7 @@ impl Instance {
         }
     }
 
-    fn read(&mut self, f: Function, vr: u32, ty: VarType) -> CallResult<Value> {
+    fn read<F: Call>(&mut self, f: F, vr: u32, ty: VarType) -> CallResult<Value> {
         let binding = self.variable(f, vr, ty)?.binding;
         Ok(match binding {
             Binding::Parameter(i) => Value::Real(self.scene.get(i)),
@@ -261,41 +293,41 @@ impl Instance {
         })
     }
 
-    pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> CallResult {
+    pub fn get_real<F: Call>(&mut self, f: F, vrs: &[u32], values: &mut [f64]) -> CallResult {
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            if let Value::Real(x) = self.read(Function::GetReal, *vr, VarType::Real)? {
+            if let Value::Real(x) = self.read(f, *vr, VarType::Real)? {
                 *out = x;
             }
         }
         Ok(())
     }
 
-    pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> CallResult {
+    pub fn get_integer<F: Call>(&mut self, f: F, vrs: &[u32], values: &mut [i32]) -> CallResult {
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            if let Value::Integer(x) = self.read(Function::GetInteger, *vr, VarType::Integer)? {
+            if let Value::Integer(x) = self.read(f, *vr, VarType::Integer)? {
                 *out = x.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
             }
         }
         Ok(())
     }
 
-    pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> CallResult {
+    pub fn get_boolean<F: Call>(&mut self, f: F, vrs: &[u32], values: &mut [bool]) -> CallResult {
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            if let Value::Boolean(x) = self.read(Function::GetBoolean, *vr, VarType::Boolean)? {
+            if let Value::Boolean(x) = self.read(f, *vr, VarType::Boolean)? {
                 *out = x;
             }
         }
         Ok(())
     }
 
-    /// fmi2GetString / SetInteger / SetBoolean / SetString: this FMU has no
-    /// variable they can reach; any value reference is an error.
-    pub fn no_such_variables(&self, f: Function, vrs: &[u32], what: &str) -> CallResult {
+    /// A getter or setter of a type this FMU has no variable of (that it
+    /// may call): any value reference is an error.
+    pub fn no_such_variables<F: Call>(&self, f: F, vrs: &[u32], what: &str) -> CallResult {
         match vrs.first() {
             None => Ok(()),
             Some(vr) => {
                 let detail = match self.table.get(*vr) {
-                    Some(v) => format!("value reference {vr} is '{}', a {} {:?}", v.name, v.ty.name(), v.causality),
+                    Some(v) => format!("value reference {vr} is '{}', a {} {:?}", v.name, f.type_name(v.ty), v.causality),
                     None => format!("value reference {vr} does not exist"),
                 };
                 Err(self.fail(&format!("{}: this FMU has no {what}; {detail}", f.name())))
@@ -303,8 +335,8 @@ impl Instance {
         }
     }
 
-    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> CallResult {
-        let f = Function::SetReal;
+    pub fn set_real<F: Call>(&mut self, f: F, vrs: &[u32], values: &[f64]) -> CallResult {
+        let name = f.name();
         // Check every value first: a rejected call changes nothing.
         let mut scene = self.scene.clone();
         let mut inputs = self.inputs.clone();
@@ -314,29 +346,29 @@ impl Instance {
             match v.binding {
                 Binding::Parameter(i) => {
                     let p = &self.table.interface.parameters[i];
-                    let after_init = !matches!(self.machine, ModelState::Instantiated | ModelState::InitializationMode);
-                    if after_init && !p.tunable {
+                    if self.machine.initialized() && !p.tunable {
+                        let prefix = &name[..4];
                         return Err(self.fail(&format!(
-                            "fmi2SetReal: '{}' = {value:?}: '{}' is a fixed parameter, settable only before fmi2ExitInitializationMode (or after fmi2Reset); it stays {}",
+                            "{name}: '{}' = {value:?}: '{}' is a fixed parameter, settable only before {prefix}ExitInitializationMode (or after {prefix}Reset); it stays {}",
                             p.name,
                             p.name,
                             self.scene.get(i)
                         )));
                     }
                     if let Err(m) = p.range.check(&format!("'{}'", p.name), *value) {
-                        return Err(self.fail(&format!("fmi2SetReal: {m}")));
+                        return Err(self.fail(&format!("{name}: {m}")));
                     }
                     parameters.push((i, *value));
                 }
                 Binding::Input(i) => {
                     let input = &self.table.interface.inputs[i];
                     if let Err(m) = input.range.check(&format!("input '{}'", input.name), *value) {
-                        return Err(self.fail(&format!("fmi2SetReal: {m}")));
+                        return Err(self.fail(&format!("{name}: {m}")));
                     }
                     inputs[i] = *value;
                 }
                 Binding::Output(_) => {
-                    return Err(self.fail(&format!("fmi2SetReal: '{}' (value reference {vr}) is an output and cannot be set", v.name)));
+                    return Err(self.fail(&format!("{name}: '{}' (value reference {vr}) is an output and cannot be set", v.name)));
                 }
             }
         }
@@ -350,18 +382,18 @@ impl Instance {
             // makes them too, once a simulation exists).
             None if parameters_changed => {
                 if let Err(e) = scene.validate() {
-                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                    return Err(self.fail(&format!("{name}: {e}")));
                 }
             }
             Some(sim) if parameters_changed || inputs_changed => {
                 if let Err(e) = scene.validate() {
-                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                    return Err(self.fail(&format!("{name}: {e}")));
                 }
                 // Applied to a copy first: a refused change leaves the run as it was.
                 let mut updated = sim.clone();
                 let model_applied = if parameters_changed { scene.retune(updated.as_mut()) } else { Ok(()) };
                 if let Err(e) = model_applied.and_then(|()| updated.set_inputs(&inputs)) {
-                    return Err(self.fail(&format!("fmi2SetReal: {e}")));
+                    return Err(self.fail(&format!("{name}: {e}")));
                 }
                 let events = updated.drain_events();
                 *sim = updated;
@@ -377,23 +409,40 @@ impl Instance {
         Ok(())
     }
 
-    pub fn do_step(&mut self, t: f64, h: f64) -> CallResult {
+    /// A DoStep: advances from `t` (the run's time) by `h`, handling every
+    /// event on the way, or (with `until_event`) stops just before the
+    /// discrete change of the first event that changes the state, where
+    /// [`Self::apply_pending`] makes it. A recoverable failure is a
+    /// Discard at the time reached (the step-discarded state), any other
+    /// an Error (the error state).
+    pub fn do_step<F: Call>(&mut self, f: F, t: f64, h: f64, until_event: bool) -> CallResult<StepEnd> {
+        let target = self.check_step(f, t, h)?;
+        if until_event {
+            self.advance(f, target, Some(&mut |_| true))
+        } else {
+            self.advance(f, target, None)
+        }
+    }
+
+    /// The end of a step from `t` by `h` (the checks of a DoStep).
+    pub fn check_step<F: Call>(&mut self, f: F, t: f64, h: f64) -> CallResult<f64> {
+        let name = f.name();
         let Some(sim) = self.sim.as_mut() else {
-            return Err(self.fail("fmi2DoStep: no simulation (initialisation did not complete)"));
+            return Err(self.fail(&format!("{name}: no simulation (initialisation did not complete)")));
         };
         let now = sim.time();
         let tol = 1e-9 * now.abs().max(1.0);
         if !t.is_finite() || (t - now).abs() > tol {
-            let m = format!("fmi2DoStep: currentCommunicationPoint = {t} does not match the FMU's time {now}");
+            let m = format!("{name}: currentCommunicationPoint = {t} does not match the FMU's time {now}");
             return Err(self.fail(&m));
         }
         if !(h > 0.0) || !h.is_finite() {
-            return Err(self.fail(&format!("fmi2DoStep: communicationStepSize = {h}: must be finite and > 0")));
+            return Err(self.fail(&format!("{name}: communicationStepSize = {h}: must be finite and > 0")));
         }
         let target = (t + h).max(now);
         if target <= now {
             return Err(self.fail(&format!(
-                "fmi2DoStep: communicationStepSize = {h:e} does not move the time {now} (its resolution there is {:e}); take a longer step",
+                "{name}: communicationStepSize = {h:e} does not move the time {now} (its resolution there is {:e}); take a longer step",
                 now.abs().max(f64::MIN_POSITIVE) * f64::EPSILON
             )));
         }
@@ -401,35 +450,97 @@ impl Instance {
         let resolution = target.abs() * f64::EPSILON;
         if resolution > MAX_TIME_RESOLUTION * period {
             return Err(self.fail(&format!(
-                "fmi2DoStep: t + h = {target}: the time's resolution there ({resolution:e}) exceeds {MAX_TIME_RESOLUTION} of the \
+                "{name}: t + h = {target}: the time's resolution there ({resolution:e}) exceeds {MAX_TIME_RESOLUTION} of the \
                  period of the first mode or the load ({period:e}), too coarse to locate impacts; start the experiment nearer t = 0"
             )));
         }
         if let Some(stop) = self.stop_time {
             if target > stop + 1e-9 * stop.abs().max(1.0) {
-                return Err(self.fail(&format!("fmi2DoStep: t + h = {target} is past stopTime = {stop} set in fmi2SetupExperiment")));
+                return Err(self.fail(&format!("{name}: t + h = {target} is past the stopTime = {stop} set at initialisation")));
             }
         }
-        let result = sim.advance_to(target);
+        Ok(target)
+    }
+
+    /// The advance of a step to `target` (checked by [`Self::check_step`]):
+    /// see [`Self::do_step`]; it stops before an event where `stop_before`
+    /// says so (one advance, one work cap, however many events it makes).
+    pub fn advance<F: Call>(&mut self, f: F, target: f64, stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> CallResult<StepEnd> {
+        let name = f.name();
+        let Some(sim) = self.sim.as_mut() else {
+            return Err(self.fail(&format!("{name}: no simulation (initialisation did not complete)")));
+        };
+        // An event left pending (the importer stepped on without event
+        // mode) is made first, as a step without event mode would have.
+        let mut result = if std::mem::take(&mut self.pending) { sim.apply_events() } else { Ok(()) };
+        let mut end = StepEnd::Done;
+        if result.is_ok() {
+            result = match stop_before {
+                Some(stop_before) => sim.advance_until(target, stop_before).map(|reached| {
+                    if let Reached::Event(te) = reached {
+                        end = StepEnd::Event(te);
+                    }
+                }),
+                None => sim.advance_to(target),
+            };
+        }
         let events = sim.drain_events();
         let reached = sim.time();
         self.log_events(&events);
         match result {
             Ok(()) => {
-                self.last_successful_time = target;
-                Ok(())
+                self.last_successful_time = match end {
+                    StepEnd::Done => target,
+                    StepEnd::Event(te) => te,
+                };
+                self.pending = matches!(end, StepEnd::Event(_));
+                Ok(end)
             }
             Err(e) if e.recoverable() => {
                 self.last_successful_time = reached;
-                self.machine = ModelState::StepFailed;
-                self.logger.status(Status::Discard, &format!("fmi2DoStep: {e}; the step was computed up to t = {reached}"));
+                self.machine = ModelState::StepDiscarded;
+                self.logger.status(Status::Discard, &format!("{name}: {e}; the step was computed up to t = {reached}"));
                 Err(Status::Discard)
             }
             Err(e) => {
                 self.machine = ModelState::Error;
-                Err(self.fail(&format!("fmi2DoStep: {e}")))
+                Err(self.fail(&format!("{name}: {e}")))
             }
         }
+    }
+
+    /// Whether an event's discrete change is pending (see [`Snapshot::pending`]).
+    pub fn pending(&self) -> bool {
+        self.pending
+    }
+
+    /// Makes the discrete change of the pending event (nothing if none is
+    /// pending); whether one was made.
+    pub fn apply_pending<F: Call>(&mut self, f: F) -> CallResult<bool> {
+        if !self.pending {
+            return Ok(false);
+        }
+        let Some(sim) = self.sim.as_mut() else {
+            return Err(self.fail(&format!("{}: no simulation", f.name())));
+        };
+        let result = sim.apply_events();
+        let events = sim.drain_events();
+        self.log_events(&events);
+        match result {
+            Ok(()) => {
+                self.pending = false;
+                Ok(true)
+            }
+            Err(e) => {
+                self.machine = ModelState::Error;
+                Err(self.fail(&format!("{}: {e}", f.name())))
+            }
+        }
+    }
+
+    /// The run's time (the start time before one exists).
+    pub fn time(&self) -> f64 {
+        self.sim.as_ref().map_or(self.start_time, |s| s.time())
     }
 
     fn log_events(&self, events: &[EventRecord]) {
@@ -459,6 +570,7 @@ impl Instance {
             sim: self.sim.clone(),
             last_successful_time: self.last_successful_time,
             terminated: self.terminated,
+            pending: self.pending,
         }
     }
 
@@ -474,6 +586,7 @@ impl Instance {
         self.provisional = None;
         self.last_successful_time = s.last_successful_time;
         self.terminated = s.terminated;
+        self.pending = s.pending;
         self.sync_event_recording();
     }
 

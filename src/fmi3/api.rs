@@ -1,0 +1,1020 @@
+//! The exported C functions of fmi3Functions.h (FMI 3.0.1 requires every
+//! one). Each checks its pointers, enters the shared panic boundary and
+//! calls the safe [`Instance3`]; the functions of what this FMU does not
+//! have (Model Exchange, Scheduled Execution, clocks, configuration mode,
+//! derivatives) are refused with the reason. No panic crosses into the
+//! importer, and no call enters an instance that is already inside one
+//! (an intermediate-update callback calling back).
+
+#![allow(non_snake_case)]
+#![allow(clippy::missing_safety_doc, clippy::too_many_arguments)]
+
+use std::cell::{Cell, UnsafeCell};
+
+use libc::{c_char, size_t};
+
+use crate::fmi::boundary::{guarded, null_argument, run, slice, slice_mut, string};
+use crate::fmi::instance::{CallResult, Instance, Snapshot};
+use crate::fmi::logging::Logger;
+use crate::fmi::resource::resource_dir;
+use crate::fmi::serialize::{deserialize, serialize};
+
+use super::instance::{Instance3, Options};
+use super::state_machine::Function;
+use super::types::*;
+
+/// What an fmi3Instance points to: the instance and whether a call is
+/// running in it (an intermediate-update callback that calls back is
+/// refused instead of aliasing the running call's instance).
+struct Slot {
+    busy: Cell<bool>,
+    instance: UnsafeCell<Instance3>,
+}
+
+/// Runs `body` on the instance behind `c` inside the panic boundary.
+fn call(c: fmi3Instance, f: Function, body: impl FnOnce(&mut Instance3) -> CallResult) -> fmi3Status {
+    if c.is_null() {
+        return Status::Error.raw();
+    }
+    // SAFETY: a non-null instance is one fmi3InstantiateCoSimulation
+    // returned and fmi3FreeInstance has not freed (the caller's
+    // obligation). Only shared references to the slot exist; the instance
+    // inside is borrowed mutably by one call at a time (the busy flag).
+    let slot = unsafe { &*(c as *const Slot) };
+    if slot.busy.replace(true) {
+        return Status::Error.raw();
+    }
+    let instance = unsafe { &mut *slot.instance.get() };
+    let status = run(instance, f, body);
+    slot.busy.set(false);
+    status
+}
+
+fn fail(i: &Instance3, message: String) -> Status {
+    i.core.fail(&message)
+}
+
+/// The value-array length of scalar variables.
+fn check_values(i: &Instance3, f: Function, n_vr: size_t, n_values: size_t) -> CallResult {
+    if n_values != n_vr {
+        return Err(fail(i, format!("{}: nValues = {n_values}: this FMU has only scalar variables, so nValues must equal nValueReferences = {n_vr}", f.name())));
+    }
+    Ok(())
+}
+
+/// The value reference of the independent variable `time` (after the
+/// scene's variables, whose references are FMI 2.0's).
+fn time_vr(i: &Instance3) -> u32 {
+    i.core.table().variables.len() as u32
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetVersion() -> *const c_char {
+    c"3.0".as_ptr()
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetDebugLogging(
+    instance: fmi3Instance,
+    loggingOn: fmi3Boolean,
+    nCategories: size_t,
+    categories: *const fmi3String,
+) -> fmi3Status {
+    let f = Function::SetDebugLogging;
+    call(instance, f, |i| {
+        let Some(cats) = slice(categories, nCategories) else {
+            return Err(null_argument(&i.core, f, "categories[]"));
+        };
+        let mut names = Vec::with_capacity(cats.len());
+        for p in cats {
+            match string(*p) {
+                Some(s) => names.push(s),
+                None => return Err(null_argument(&i.core, f, "a category name")),
+            }
+        }
+        i.core.set_debug_logging(f, loggingOn != FMI3_FALSE, &names)
+    })
+}
+
+/// Logs through an importer's callback before an instance exists.
+unsafe fn refuse_instantiation(logMessage: fmi3LogMessageCallback, environment: fmi3InstanceEnvironment, message: &str) -> fmi3Instance {
+    let logger = Logger::new(Box::new(Fmi3Sink { callback: logMessage, environment }), true);
+    logger.status(Status::Error, message);
+    std::ptr::null_mut()
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3InstantiateModelExchange(
+    instanceName: fmi3String,
+    instantiationToken: fmi3String,
+    resourcePath: fmi3String,
+    visible: fmi3Boolean,
+    loggingOn: fmi3Boolean,
+    instanceEnvironment: fmi3InstanceEnvironment,
+    logMessage: fmi3LogMessageCallback,
+) -> fmi3Instance {
+    let _ = (instanceName, instantiationToken, resourcePath, visible, loggingOn);
+    refuse_instantiation(logMessage, instanceEnvironment, "fmi3InstantiateModelExchange: this FMU implements Co-Simulation only, not Model Exchange")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3InstantiateScheduledExecution(
+    instanceName: fmi3String,
+    instantiationToken: fmi3String,
+    resourcePath: fmi3String,
+    visible: fmi3Boolean,
+    loggingOn: fmi3Boolean,
+    instanceEnvironment: fmi3InstanceEnvironment,
+    logMessage: fmi3LogMessageCallback,
+    clockUpdate: fmi3ClockUpdateCallback,
+    lockPreemption: fmi3LockPreemptionCallback,
+    unlockPreemption: fmi3UnlockPreemptionCallback,
+) -> fmi3Instance {
+    let _ = (instanceName, instantiationToken, resourcePath, visible, loggingOn, clockUpdate, lockPreemption, unlockPreemption);
+    refuse_instantiation(logMessage, instanceEnvironment, "fmi3InstantiateScheduledExecution: this FMU implements Co-Simulation only, not Scheduled Execution")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
+    instanceName: fmi3String,
+    instantiationToken: fmi3String,
+    resourcePath: fmi3String,
+    visible: fmi3Boolean,
+    loggingOn: fmi3Boolean,
+    eventModeUsed: fmi3Boolean,
+    earlyReturnAllowed: fmi3Boolean,
+    requiredIntermediateVariables: *const fmi3ValueReference,
+    nRequiredIntermediateVariables: size_t,
+    instanceEnvironment: fmi3InstanceEnvironment,
+    logMessage: fmi3LogMessageCallback,
+    intermediateUpdate: fmi3IntermediateUpdateCallback,
+) -> fmi3Instance {
+    let _ = (visible, requiredIntermediateVariables);
+    let f = "fmi3InstantiateCoSimulation";
+    let result = guarded(|| -> Result<Instance, (Logger, String)> {
+        let logger = Logger::new(Box::new(Fmi3Sink { callback: logMessage, environment: instanceEnvironment }), loggingOn != FMI3_FALSE);
+        let name = string(instanceName).unwrap_or_default();
+        if name.is_empty() {
+            return Err((logger, format!("{f}: instanceName is NULL or empty")));
+        }
+        if nRequiredIntermediateVariables > 0 {
+            return Err((
+                logger,
+                format!(
+                    "{f}: nRequiredIntermediateVariables = {nRequiredIntermediateVariables}: this FMU offers no variables during intermediate updates (it calls the callback with intermediateVariableGetAllowed = false)"
+                ),
+            ));
+        }
+        let Some(token) = string(instantiationToken) else {
+            return Err((logger, format!("{f}: instantiationToken is NULL")));
+        };
+        let Some(location) = string(resourcePath) else {
+            return Err((logger, format!("{f}: resourcePath is NULL; the scene is read from the FMU's resources")));
+        };
+        let dir = match resource_dir(&location) {
+            Ok(d) => d,
+            Err(m) => return Err((logger, format!("{f}: {m}"))),
+        };
+        Instance::new(f, logger, &token, &dir)
+    });
+    match result {
+        Ok(Ok(core)) => {
+            let options = Options {
+                event_mode_used: eventModeUsed != FMI3_FALSE,
+                early_return_allowed: earlyReturnAllowed != FMI3_FALSE,
+                intermediate_update: intermediateUpdate,
+                environment: instanceEnvironment,
+            };
+            let slot = Slot { busy: Cell::new(false), instance: UnsafeCell::new(Instance3 { core, options }) };
+            Box::into_raw(Box::new(slot)) as fmi3Instance
+        }
+        Ok(Err((logger, message))) => {
+            logger.status(Status::Error, &message);
+            std::ptr::null_mut()
+        }
+        Err(_) => std::ptr::null_mut(),
+    }
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3FreeInstance(instance: fmi3Instance) {
+    if instance.is_null() {
+        return;
+    }
+    let slot = &*(instance as *const Slot);
+    if slot.busy.get() {
+        return;
+    }
+    let _ = guarded(|| drop(Box::from_raw(instance as *mut Slot)));
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3EnterInitializationMode(
+    instance: fmi3Instance,
+    toleranceDefined: fmi3Boolean,
+    tolerance: fmi3Float64,
+    startTime: fmi3Float64,
+    stopTimeDefined: fmi3Boolean,
+    stopTime: fmi3Float64,
+) -> fmi3Status {
+    // The integrated phases' tolerance is the parameter
+    // solver.integration_tolerance; the closed-form phases need none.
+    let _ = (toleranceDefined, tolerance);
+    let f = Function::EnterInitializationMode;
+    call(instance, f, |i| {
+        i.core.setup_experiment(f, startTime, if stopTimeDefined != FMI3_FALSE { Some(stopTime) } else { None })?;
+        i.core.enter_initialization_mode(f)
+    })
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3ExitInitializationMode(instance: fmi3Instance) -> fmi3Status {
+    call(instance, Function::ExitInitializationMode, |i| i.exit_initialization_mode())
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3EnterEventMode(instance: fmi3Instance) -> fmi3Status {
+    call(instance, Function::EnterEventMode, |i| i.enter_event_mode())
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3Terminate(instance: fmi3Instance) -> fmi3Status {
+    call(instance, Function::Terminate, |i| i.core.terminate(Function::Terminate))
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3Reset(instance: fmi3Instance) -> fmi3Status {
+    call(instance, Function::Reset, |i| i.core.reset(Function::Reset))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetFloat64(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Float64,
+    nValues: size_t,
+) -> fmi3Status {
+    let f = Function::Get("fmi3GetFloat64");
+    call(instance, f, |i| {
+        check_values(i, f, nValueReferences, nValues)?;
+        let (Some(vrs), Some(out)) = (slice(valueReferences, nValueReferences), slice_mut(values, nValues)) else {
+            return Err(null_argument(&i.core, f, "valueReferences[] or values[]"));
+        };
+        let time = time_vr(i);
+        for (vr, value) in vrs.iter().zip(out.iter_mut()) {
+            if *vr == time {
+                *value = i.core.time();
+            } else {
+                i.core.get_real(f, std::slice::from_ref(vr), std::slice::from_mut(value))?;
+            }
+        }
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt32(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Int32,
+    nValues: size_t,
+) -> fmi3Status {
+    let f = Function::Get("fmi3GetInt32");
+    call(instance, f, |i| {
+        check_values(i, f, nValueReferences, nValues)?;
+        let (Some(vrs), Some(out)) = (slice(valueReferences, nValueReferences), slice_mut(values, nValues)) else {
+            return Err(null_argument(&i.core, f, "valueReferences[] or values[]"));
+        };
+        i.core.get_integer(f, vrs, out)
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetBoolean(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Boolean,
+    nValues: size_t,
+) -> fmi3Status {
+    let f = Function::Get("fmi3GetBoolean");
+    call(instance, f, |i| {
+        check_values(i, f, nValueReferences, nValues)?;
+        let (Some(vrs), Some(out)) = (slice(valueReferences, nValueReferences), slice_mut(values, nValues)) else {
+            return Err(null_argument(&i.core, f, "valueReferences[] or values[]"));
+        };
+        let mut flags = vec![false; vrs.len()];
+        i.core.get_boolean(f, vrs, &mut flags)?;
+        for (v, b) in out.iter_mut().zip(flags) {
+            *v = if b { FMI3_TRUE } else { FMI3_FALSE };
+        }
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetFloat64(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Float64,
+    nValues: size_t,
+) -> fmi3Status {
+    let f = Function::Set("fmi3SetFloat64");
+    call(instance, f, |i| {
+        check_values(i, f, nValueReferences, nValues)?;
+        let (Some(vrs), Some(input)) = (slice(valueReferences, nValueReferences), slice(values, nValues)) else {
+            return Err(null_argument(&i.core, f, "valueReferences[] or values[]"));
+        };
+        if vrs.contains(&time_vr(i)) {
+            return Err(fail(i, format!("{}: value reference {} is 'time', the independent variable, which cannot be set", f.name(), time_vr(i))));
+        }
+        i.core.set_real(f, vrs, input)
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetFloat32(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Float32,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetFloat32"), valueReferences, nValueReferences, nValues, "Float32 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt8(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Int8,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetInt8"), valueReferences, nValueReferences, nValues, "Int8 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt8(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3UInt8,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetUInt8"), valueReferences, nValueReferences, nValues, "UInt8 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt16(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Int16,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetInt16"), valueReferences, nValueReferences, nValues, "Int16 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt16(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3UInt16,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetUInt16"), valueReferences, nValueReferences, nValues, "UInt16 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt32(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3UInt32,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetUInt32"), valueReferences, nValueReferences, nValues, "UInt32 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetInt64(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3Int64,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetInt64"), valueReferences, nValueReferences, nValues, "Int64 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetUInt64(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3UInt64,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetUInt64"), valueReferences, nValueReferences, nValues, "UInt64 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetString(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *mut fmi3String,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Get("fmi3GetString"), valueReferences, nValueReferences, nValues, "String variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetFloat32(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Float32,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetFloat32"), valueReferences, nValueReferences, nValues, "Float32 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt8(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Int8,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetInt8"), valueReferences, nValueReferences, nValues, "Int8 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt8(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3UInt8,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetUInt8"), valueReferences, nValueReferences, nValues, "UInt8 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt16(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Int16,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetInt16"), valueReferences, nValueReferences, nValues, "Int16 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt16(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3UInt16,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetUInt16"), valueReferences, nValueReferences, nValues, "UInt16 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt32(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Int32,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetInt32"), valueReferences, nValueReferences, nValues, "Int32 variables that can be set")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt32(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3UInt32,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetUInt32"), valueReferences, nValueReferences, nValues, "UInt32 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetInt64(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Int64,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetInt64"), valueReferences, nValueReferences, nValues, "Int64 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetUInt64(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3UInt64,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetUInt64"), valueReferences, nValueReferences, nValues, "UInt64 variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetBoolean(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3Boolean,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetBoolean"), valueReferences, nValueReferences, nValues, "Boolean variables that can be set")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetString(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    values: *const fmi3String,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = values;
+    absent_type(instance, Function::Set("fmi3SetString"), valueReferences, nValueReferences, nValues, "String variables")
+}
+
+/// A getter or setter of a type this FMU has no variable of (that it may
+/// call): refused for any value reference, which the message describes.
+unsafe fn absent_type(instance: fmi3Instance, f: Function, vr: *const fmi3ValueReference, n_vr: size_t, n_values: size_t, what: &str) -> fmi3Status {
+    call(instance, f, |i| {
+        check_values(i, f, n_vr, n_values)?;
+        let Some(vrs) = slice(vr, n_vr) else { return Err(null_argument(&i.core, f, "valueReferences[]")) };
+        if vrs.first() == Some(&time_vr(i)) {
+            return Err(fail(i, format!("{}: this FMU has no {what}; value reference {} is 'time', a Float64", f.name(), time_vr(i))));
+        }
+        i.core.no_such_variables(f, vrs, what)
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetBinary(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    valueSizes: *mut size_t,
+    values: *mut fmi3Binary,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = (valueSizes, values);
+    absent_type(instance, Function::Get("fmi3GetBinary"), valueReferences, nValueReferences, nValues, "Binary variables")
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetBinary(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    valueSizes: *const size_t,
+    values: *const fmi3Binary,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = (valueSizes, values);
+    absent_type(instance, Function::Set("fmi3SetBinary"), valueReferences, nValueReferences, nValues, "Binary variables")
+}
+
+const NO_CLOCKS: &str = "this FMU has no clocks";
+const NO_CONFIGURATION: &str = "this FMU has no structural parameters, so no configuration mode";
+const NO_MODEL_EXCHANGE: &str = "this FMU implements Co-Simulation only, not Model Exchange";
+
+/// A function of something this FMU does not have: refused in every state
+/// with the reason (the state table allows it nowhere).
+fn absent(instance: fmi3Instance, name: &'static str, why: &'static str) -> fmi3Status {
+    call(instance, Function::Absent(name, why), |_| Ok(()))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetClock(instance: fmi3Instance, valueReferences: *const fmi3ValueReference, nValueReferences: size_t, values: *mut fmi3Clock) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, values);
+    absent(instance, "fmi3GetClock", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetClock(instance: fmi3Instance, valueReferences: *const fmi3ValueReference, nValueReferences: size_t, values: *const fmi3Clock) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, values);
+    absent(instance, "fmi3SetClock", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetNumberOfVariableDependencies(instance: fmi3Instance, valueReference: fmi3ValueReference, nDependencies: *mut size_t) -> fmi3Status {
+    let _ = (valueReference, nDependencies);
+    let f = Function::GetNumberOfVariableDependencies;
+    call(instance, f, |i| Err(fail(i, format!("{}: not provided (providesPerElementDependencies = false; modelDescription.xml lists the dependencies)", f.name()))))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetVariableDependencies(
+    instance: fmi3Instance,
+    dependent: fmi3ValueReference,
+    elementIndicesOfDependent: *mut size_t,
+    independents: *mut fmi3ValueReference,
+    elementIndicesOfIndependents: *mut size_t,
+    dependencyKinds: *mut fmi3DependencyKind,
+    nDependencies: size_t,
+) -> fmi3Status {
+    let _ = (dependent, elementIndicesOfDependent, independents, elementIndicesOfIndependents, dependencyKinds, nDependencies);
+    let f = Function::GetVariableDependencies;
+    call(instance, f, |i| Err(fail(i, format!("{}: not provided (providesPerElementDependencies = false; modelDescription.xml lists the dependencies)", f.name()))))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetFMUState(instance: fmi3Instance, FMUState: *mut fmi3FMUState) -> fmi3Status {
+    let f = Function::GetFMUState;
+    call(instance, f, |i| {
+        if FMUState.is_null() {
+            return Err(null_argument(&i.core, f, "FMUState"));
+        }
+        let snapshot = i.core.snapshot();
+        if (*FMUState).is_null() {
+            *FMUState = Box::into_raw(Box::new(snapshot)) as fmi3FMUState;
+        } else {
+            // Reuse the importer's earlier state object.
+            *((*FMUState) as *mut Snapshot) = snapshot;
+        }
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetFMUState(instance: fmi3Instance, FMUState: fmi3FMUState) -> fmi3Status {
+    let f = Function::SetFMUState;
+    call(instance, f, |i| {
+        if FMUState.is_null() {
+            return Err(null_argument(&i.core, f, "FMUState"));
+        }
+        i.core.restore(&*(FMUState as *const Snapshot));
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3FreeFMUState(instance: fmi3Instance, FMUState: *mut fmi3FMUState) -> fmi3Status {
+    call(instance, Function::FreeFMUState, |_| {
+        if FMUState.is_null() || (*FMUState).is_null() {
+            return Ok(());
+        }
+        drop(Box::from_raw((*FMUState) as *mut Snapshot));
+        *FMUState = std::ptr::null_mut();
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SerializedFMUStateSize(instance: fmi3Instance, FMUState: fmi3FMUState, size: *mut size_t) -> fmi3Status {
+    let f = Function::SerializedFMUStateSize;
+    call(instance, f, |i| {
+        if FMUState.is_null() || size.is_null() {
+            return Err(null_argument(&i.core, f, "FMUState or size"));
+        }
+        *size = serialize(i.core.guid(), &*(FMUState as *const Snapshot)).len();
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SerializeFMUState(instance: fmi3Instance, FMUState: fmi3FMUState, serializedState: *mut fmi3Byte, size: size_t) -> fmi3Status {
+    let f = Function::SerializeFMUState;
+    call(instance, f, |i| {
+        if FMUState.is_null() {
+            return Err(null_argument(&i.core, f, "FMUState"));
+        }
+        let bytes = serialize(i.core.guid(), &*(FMUState as *const Snapshot));
+        if size < bytes.len() {
+            return Err(fail(i, format!("{}: size = {size}: the state needs {} bytes (fmi3SerializedFMUStateSize)", f.name(), bytes.len())));
+        }
+        let Some(out) = slice_mut(serializedState, bytes.len()) else {
+            return Err(null_argument(&i.core, f, "serializedState"));
+        };
+        out.copy_from_slice(&bytes);
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3DeserializeFMUState(instance: fmi3Instance, serializedState: *const fmi3Byte, size: size_t, FMUState: *mut fmi3FMUState) -> fmi3Status {
+    let f = Function::DeserializeFMUState;
+    call(instance, f, |i| {
+        let Some(bytes) = slice(serializedState, size) else {
+            return Err(null_argument(&i.core, f, "serializedState"));
+        };
+        if FMUState.is_null() {
+            return Err(null_argument(&i.core, f, "FMUState"));
+        }
+        let snapshot = deserialize(&i.core, bytes, true).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
+        if (*FMUState).is_null() {
+            *FMUState = Box::into_raw(Box::new(snapshot)) as fmi3FMUState;
+        } else {
+            *((*FMUState) as *mut Snapshot) = snapshot;
+        }
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
+    instance: fmi3Instance,
+    unknowns: *const fmi3ValueReference,
+    nUnknowns: size_t,
+    knowns: *const fmi3ValueReference,
+    nKnowns: size_t,
+    seed: *const fmi3Float64,
+    nSeed: size_t,
+    sensitivity: *mut fmi3Float64,
+    nSensitivity: size_t,
+) -> fmi3Status {
+    let _ = (unknowns, nUnknowns, knowns, nKnowns, seed, nSeed, sensitivity, nSensitivity);
+    let f = Function::GetDirectionalDerivative;
+    call(instance, f, |i| Err(fail(i, format!("{}: not provided (providesDirectionalDerivatives = false)", f.name()))))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetAdjointDerivative(
+    instance: fmi3Instance,
+    unknowns: *const fmi3ValueReference,
+    nUnknowns: size_t,
+    knowns: *const fmi3ValueReference,
+    nKnowns: size_t,
+    seed: *const fmi3Float64,
+    nSeed: size_t,
+    sensitivity: *mut fmi3Float64,
+    nSensitivity: size_t,
+) -> fmi3Status {
+    let _ = (unknowns, nUnknowns, knowns, nKnowns, seed, nSeed, sensitivity, nSensitivity);
+    let f = Function::GetAdjointDerivative;
+    call(instance, f, |i| Err(fail(i, format!("{}: not provided (providesAdjointDerivatives = false)", f.name()))))
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3EnterConfigurationMode(instance: fmi3Instance) -> fmi3Status {
+    absent(instance, "fmi3EnterConfigurationMode", NO_CONFIGURATION)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3ExitConfigurationMode(instance: fmi3Instance) -> fmi3Status {
+    absent(instance, "fmi3ExitConfigurationMode", NO_CONFIGURATION)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetIntervalDecimal(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    intervals: *mut fmi3Float64,
+    qualifiers: *mut fmi3IntervalQualifier,
+) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, intervals, qualifiers);
+    absent(instance, "fmi3GetIntervalDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetIntervalFraction(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    counters: *mut fmi3UInt64,
+    resolutions: *mut fmi3UInt64,
+    qualifiers: *mut fmi3IntervalQualifier,
+) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, counters, resolutions, qualifiers);
+    absent(instance, "fmi3GetIntervalFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetShiftDecimal(instance: fmi3Instance, valueReferences: *const fmi3ValueReference, nValueReferences: size_t, shifts: *mut fmi3Float64) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, shifts);
+    absent(instance, "fmi3GetShiftDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetShiftFraction(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    counters: *mut fmi3UInt64,
+    resolutions: *mut fmi3UInt64,
+) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, counters, resolutions);
+    absent(instance, "fmi3GetShiftFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetIntervalDecimal(instance: fmi3Instance, valueReferences: *const fmi3ValueReference, nValueReferences: size_t, intervals: *const fmi3Float64) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, intervals);
+    absent(instance, "fmi3SetIntervalDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetIntervalFraction(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    counters: *const fmi3UInt64,
+    resolutions: *const fmi3UInt64,
+) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, counters, resolutions);
+    absent(instance, "fmi3SetIntervalFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetShiftDecimal(instance: fmi3Instance, valueReferences: *const fmi3ValueReference, nValueReferences: size_t, shifts: *const fmi3Float64) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, shifts);
+    absent(instance, "fmi3SetShiftDecimal", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3SetShiftFraction(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    counters: *const fmi3UInt64,
+    resolutions: *const fmi3UInt64,
+) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, counters, resolutions);
+    absent(instance, "fmi3SetShiftFraction", NO_CLOCKS)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3EvaluateDiscreteStates(instance: fmi3Instance) -> fmi3Status {
+    let f = Function::EvaluateDiscreteStates;
+    call(instance, f, |i| Err(fail(i, format!("{}: not provided (providesEvaluateDiscreteStates = false)", f.name()))))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3UpdateDiscreteStates(
+    instance: fmi3Instance,
+    discreteStatesNeedUpdate: *mut fmi3Boolean,
+    terminateSimulation: *mut fmi3Boolean,
+    nominalsOfContinuousStatesChanged: *mut fmi3Boolean,
+    valuesOfContinuousStatesChanged: *mut fmi3Boolean,
+    nextEventTimeDefined: *mut fmi3Boolean,
+    nextEventTime: *mut fmi3Float64,
+) -> fmi3Status {
+    let f = Function::UpdateDiscreteStates;
+    call(instance, f, |i| {
+        let flags = [discreteStatesNeedUpdate, terminateSimulation, nominalsOfContinuousStatesChanged, valuesOfContinuousStatesChanged, nextEventTimeDefined];
+        if flags.iter().any(|p| p.is_null()) || nextEventTime.is_null() {
+            return Err(null_argument(&i.core, f, "an output argument"));
+        }
+        let changed = i.update_discrete_states()?;
+        for p in flags {
+            *p = FMI3_FALSE;
+        }
+        // The change is a jump of the velocities (a restitution impact,
+        // the start of sticking): continuous states in FMI's words.
+        *valuesOfContinuousStatesChanged = if changed { FMI3_TRUE } else { FMI3_FALSE };
+        *nextEventTime = 0.0;
+        Ok(())
+    })
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3EnterContinuousTimeMode(instance: fmi3Instance) -> fmi3Status {
+    absent(instance, "fmi3EnterContinuousTimeMode", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3CompletedIntegratorStep(instance: fmi3Instance, noSetFMUStatePriorToCurrentPoint: fmi3Boolean, enterEventMode: *mut fmi3Boolean, terminateSimulation: *mut fmi3Boolean) -> fmi3Status {
+    let _ = (noSetFMUStatePriorToCurrentPoint, enterEventMode, terminateSimulation);
+    absent(instance, "fmi3CompletedIntegratorStep", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3SetTime(instance: fmi3Instance, time: fmi3Float64) -> fmi3Status {
+    let _ = time;
+    absent(instance, "fmi3SetTime", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3SetContinuousStates(instance: fmi3Instance, continuousStates: *const fmi3Float64, nContinuousStates: size_t) -> fmi3Status {
+    let _ = (continuousStates, nContinuousStates);
+    absent(instance, "fmi3SetContinuousStates", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetContinuousStateDerivatives(instance: fmi3Instance, derivatives: *mut fmi3Float64, nContinuousStates: size_t) -> fmi3Status {
+    let _ = (derivatives, nContinuousStates);
+    absent(instance, "fmi3GetContinuousStateDerivatives", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetEventIndicators(instance: fmi3Instance, eventIndicators: *mut fmi3Float64, nEventIndicators: size_t) -> fmi3Status {
+    let _ = (eventIndicators, nEventIndicators);
+    absent(instance, "fmi3GetEventIndicators", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetContinuousStates(instance: fmi3Instance, continuousStates: *mut fmi3Float64, nContinuousStates: size_t) -> fmi3Status {
+    let _ = (continuousStates, nContinuousStates);
+    absent(instance, "fmi3GetContinuousStates", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetNominalsOfContinuousStates(instance: fmi3Instance, nominals: *mut fmi3Float64, nContinuousStates: size_t) -> fmi3Status {
+    let _ = (nominals, nContinuousStates);
+    absent(instance, "fmi3GetNominalsOfContinuousStates", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetNumberOfEventIndicators(instance: fmi3Instance, nEventIndicators: *mut size_t) -> fmi3Status {
+    let _ = nEventIndicators;
+    absent(instance, "fmi3GetNumberOfEventIndicators", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3GetNumberOfContinuousStates(instance: fmi3Instance, nContinuousStates: *mut size_t) -> fmi3Status {
+    let _ = nContinuousStates;
+    absent(instance, "fmi3GetNumberOfContinuousStates", NO_MODEL_EXCHANGE)
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3EnterStepMode(instance: fmi3Instance) -> fmi3Status {
+    call(instance, Function::EnterStepMode, |i| i.enter_step_mode())
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3GetOutputDerivatives(
+    instance: fmi3Instance,
+    valueReferences: *const fmi3ValueReference,
+    nValueReferences: size_t,
+    orders: *const fmi3Int32,
+    values: *mut fmi3Float64,
+    nValues: size_t,
+) -> fmi3Status {
+    let _ = (valueReferences, nValueReferences, orders, values, nValues);
+    let f = Function::GetOutputDerivatives;
+    call(instance, f, |i| Err(fail(i, format!("{}: not provided (maxOutputDerivativeOrder = 0)", f.name()))))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi3DoStep(
+    instance: fmi3Instance,
+    currentCommunicationPoint: fmi3Float64,
+    communicationStepSize: fmi3Float64,
+    noSetFMUStatePriorToCurrentPoint: fmi3Boolean,
+    eventHandlingNeeded: *mut fmi3Boolean,
+    terminateSimulation: *mut fmi3Boolean,
+    earlyReturn: *mut fmi3Boolean,
+    lastSuccessfulTime: *mut fmi3Float64,
+) -> fmi3Status {
+    let _ = noSetFMUStatePriorToCurrentPoint;
+    let f = Function::DoStep;
+    call(instance, f, |i| {
+        if eventHandlingNeeded.is_null() || terminateSimulation.is_null() || earlyReturn.is_null() || lastSuccessfulTime.is_null() {
+            return Err(null_argument(&i.core, f, "an output argument"));
+        }
+        let result = i.do_step(currentCommunicationPoint, communicationStepSize);
+        let stepped = result.unwrap_or(super::instance::Stepped { event_handling_needed: false, early_return: false });
+        *eventHandlingNeeded = if stepped.event_handling_needed { FMI3_TRUE } else { FMI3_FALSE };
+        *earlyReturn = if stepped.early_return { FMI3_TRUE } else { FMI3_FALSE };
+        *terminateSimulation = FMI3_FALSE;
+        *lastSuccessfulTime = i.core.last_successful_time();
+        result.map(|_| ())
+    })
+}
+
+#[no_mangle]
+pub extern "C" fn fmi3ActivateModelPartition(instance: fmi3Instance, clockReference: fmi3ValueReference, activationTime: fmi3Float64) -> fmi3Status {
+    let _ = (clockReference, activationTime);
+    absent(instance, "fmi3ActivateModelPartition", "this FMU implements Co-Simulation only, not Scheduled Execution")
+}
