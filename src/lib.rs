@@ -22,6 +22,7 @@ pub mod interface;
 pub mod kind;
 pub mod kinds;
 pub mod model;
+pub mod orbits;
 pub mod package;
 pub mod readout;
 pub mod rotating;

@@ -4,11 +4,12 @@
 
 use std::sync::{Arc, OnceLock};
 
+use nalgebra::{DMatrix, DVector};
 use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
 use crate::interface::{self, OutputKey};
-use crate::kind::{EventClass, EventRecord, Kind, Reached, Run, Scene, SimError, Work};
+use crate::kind::{EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Work};
 use crate::model::Model;
 use crate::readout;
 use crate::sim::{EventKind, Simulation};
@@ -171,5 +172,22 @@ impl Run for ModalRun {
     fn work(&self) -> Work {
         let stats = self.sim.stats();
         Work { events: stats.events, units: stats.probes, unit: "event-function evaluations" }
+    }
+
+    fn flow(&mut self) -> Option<&mut dyn Flow> {
+        if self.sim.flow_unsupported().is_some() {
+            return None;
+        }
+        Some(self)
+    }
+}
+
+impl Flow for ModalRun {
+    fn state(&self) -> DVector<f64> {
+        self.sim.flow_state()
+    }
+
+    fn advance_with_jacobian(&mut self, t: f64) -> Result<DMatrix<f64>, SimError> {
+        self.sim.advance_with_jacobian(t)
     }
 }

@@ -290,6 +290,14 @@ pub(super) struct EventWork {
     jet: Option<ModalJet>,
 }
 
+impl EventWork {
+    /// The stops the last impact involved (impacting, sticking or held),
+    /// each with the restitution it applied (0 for the sticking and held).
+    pub(super) fn impact_rows(&self) -> Vec<(usize, f64)> {
+        self.involved.iter().map(|&i| (i, self.restitution.get(i).copied().unwrap_or(0.0))).collect()
+    }
+}
+
 impl Default for EventWork {
     fn default() -> Self {
         EventWork {

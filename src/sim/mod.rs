@@ -24,6 +24,7 @@ mod accounting;
 mod codec;
 mod coupled;
 mod events;
+mod flow;
 mod integrated;
 pub mod nonlinear;
 mod phases;
@@ -33,6 +34,7 @@ mod state;
 mod transfer;
 
 pub use codec::STATE_VERSION;
+pub use flow::state_vector;
 pub use crate::kind::Reached;
 use crate::error::SimError;
 pub use record::{Event, EventKind};

@@ -1,0 +1,115 @@
+//! The exact flow's Jacobian (phase transition matrices and saltation
+//! matrices, `src/sim/flow.rs`) against central finite differences of the
+//! simulation itself: runs restarted at `t0` from the state there moved by
+//! `+-h` in one coordinate. The step is where the differences are most
+//! accurate: 1e-7 of the state's largest coordinate where their error
+//! falls as h^2 (the free beam, the spring stop: 5e-10 there), 1e-5 where
+//! it grows as 1/h, the rounding of some thirty event times (the forced
+//! scenes: 5e-9 and 4e-8 there). `cargo test --release --test flow --
+//! --nocapture` prints each.
+//! Every event kind of the closed-form laws away from threshold
+//! decisions: restitution impacts, a chatter sequence ending in a stick
+//! (the eps rule decides the same on both sides), the stuck phase and its
+//! release, a spring-dashpot stop's onset and separation with the dashpot's
+//! jump in the vector field.
+
+mod common;
+
+use beamstop::interface::ParamKey;
+use beamstop::sim::state_vector;
+use beamstop::solve::ModalState;
+use beamstop::{Model, Scene, Simulation};
+use nalgebra::{DMatrix, DVector};
+
+fn with(mut scene: Scene, values: &[(ParamKey, f64)]) -> Scene {
+    for &(k, v) in values {
+        k.set(&mut scene, v);
+    }
+    scene
+}
+
+fn modal(x: &DVector<f64>) -> ModalState {
+    let n = x.len() / 2;
+    ModalState { q: x.rows(0, n).into_owned(), qd: x.rows(n, n).into_owned() }
+}
+
+/// A run of `model` started at `t0` in state `x`.
+fn start(model: &Model, t0: f64, x: &DVector<f64>) -> Simulation {
+    let mut m = model.clone();
+    m.initial = modal(x);
+    Simulation::new(m, t0).unwrap()
+}
+
+/// The Jacobian over `[t0, t1]` (from the model's own state at `t0`), its
+/// largest difference from central differences with the step `h_rel` of
+/// the state's largest coordinate, relative to its largest entry, and the
+/// events it went through.
+fn check(model: Model, t0: f64, t1: f64, h_rel: f64) -> (DMatrix<f64>, f64, usize) {
+    let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+    sim.advance_to(t0).unwrap();
+    let x0 = state_vector(sim.current());
+    let mut run = start(&model, t0, &x0);
+    run.set_event_recording(true);
+    let jac = run.advance_with_jacobian(t1).unwrap();
+    let events = run.drain_events().len();
+    // The same trajectory as a plain advance, bit for bit.
+    let mut plain = start(&model, t0, &x0);
+    plain.advance_to(t1).unwrap();
+    assert_eq!(state_vector(plain.current()), state_vector(run.current()), "advance_with_jacobian moves as advance_to does");
+    let h = h_rel * x0.amax();
+    let mut fd = DMatrix::zeros(x0.len(), x0.len());
+    for k in 0..x0.len() {
+        let end = |s: f64| {
+            let mut x = x0.clone();
+            x[k] += s * h;
+            let mut r = start(&model, t0, &x);
+            r.advance_to(t1).unwrap();
+            state_vector(r.current())
+        };
+        fd.set_column(k, &((end(1.0) - end(-1.0)) / (2.0 * h)));
+    }
+    let err = (&jac - &fd).amax() / jac.amax();
+    eprintln!("[{t0}, {t1}]: {events} events, h = {h_rel:e} of the state: relative difference {err:e}");
+    (jac, err, events)
+}
+
+#[test]
+fn restitution_impacts() {
+    // The free pinned beam with a light damping, R = 0.7: impacts only.
+    let scene = with(
+        common::scene("pinned_beam"),
+        &[(ParamKey::LoadAmplitude(0), 0.0), (ParamKey::Zeta, 0.01), (ParamKey::InitialQ(0), -3.0 / 2f64.sqrt()), (ParamKey::InitialQ(1), 0.3)],
+    );
+    let (_, err, events) = check(Model::build(&scene).unwrap(), 0.05, 0.6, 1e-7);
+    assert!(events >= 3, "{events} events");
+    assert!(err < 1e-7, "relative difference {err:e} over {events} events");
+}
+
+#[test]
+fn forced_impacts_of_figure_4() {
+    // VSM12's Figure 4 scene in free flight after the first release, up to
+    // before the chatter: impacts under the load.
+    let (_, err, events) = check(Model::build(&common::scene("pinned_beam")).unwrap(), 4.0, 6.45, 1e-5);
+    assert!(events >= 2, "{events} events");
+    assert!(err < 1e-7, "relative difference {err:e} over {events} events");
+}
+
+#[test]
+fn chatter_stick_and_release() {
+    // From free flight through a chatter sequence that ends stuck (the eps
+    // rule decides it), the stuck phase, the release, free flight.
+    let (jac, err, events) = check(Model::build(&common::scene("pinned_beam")).unwrap(), 6.52, 9.8, 1e-5);
+    assert!(events >= 4, "{events} events");
+    assert!(err < 1e-7, "relative difference {err:e} over {events} events");
+    assert!(jac.iter().all(|x| x.is_finite()));
+}
+
+#[test]
+fn spring_dashpot_onset_and_separation() {
+    // The soft spring stop with a dashpot: the vector field jumps by the
+    // dashpot's force at the onset.
+    let scene = with(common::scene("spring_stop_soft"), &[(ParamKey::Law(0, 1), 0.5)]);
+    let (_, err, events) = check(Model::build(&scene).unwrap(), 0.05, 0.2, 1e-7);
+    assert!(events >= 2, "{events} events");
+    assert!(err < 1e-7, "relative difference {err:e} over {events} events");
+}
