@@ -153,18 +153,18 @@ impl Simulation {
         })
     }
 
-    /// Moves an event found at `l` onto the zero itself: the search stops
+    /// Moves an event found at `l` onto the zero itself. The search stops
     /// where the function is within its (conservative) rounding noise of
     /// zero, up to some tens of ulp of the time early; Newton steps on the
-    /// closed form take it to within a few ulp (the free pinned beam's
+    /// closed form take it to within an ulp or two (the free pinned beam's
     /// first impact at 1/(2 pi): from 28 ulp to 1), as long as each step
     /// stays inside the other functions' certified clear step and the
-    /// advance (up to `t_end`) and the point it reaches still has the
-    /// event. Steps only go forward, and stop where the next one rounds
-    /// away or the zero is passed: a
-    /// restored run probing at the point returned stays there. (Unbiased:
-    /// over 1000 impacts of the free beam with R = 1 the contact point
-    /// sits at -1.3e-15 on average when struck, against +7.3e-15 before.)
+    /// advance (up to `t_end`), and the point it reaches still has the
+    /// event within rounding on either side. Steps only go forward and
+    /// stop where the next one rounds away or the zero is passed, so a
+    /// restored run probing at the point returned stays there. Unbiased:
+    /// over 1000 impacts of the free beam with R = 1 the struck point sits
+    /// at -1.3e-15 on average, against +7.3e-15 without.
     fn polish(&self, mut l: f64, mut clear: f64, t_end: f64, st: &mut ModalState, buffers: &mut ProbeBuffers) -> f64 {
         for _ in 0..8 {
             let Some(delta) = newton_step(&buffers.at_zero) else { break };

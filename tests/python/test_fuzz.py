@@ -25,10 +25,12 @@ FMU3_DIR = ROOT / "target" / "fmu3"
 FMUS3 = sorted(FMU3_DIR.glob("*.fmu"))
 SEEDS = (11, 12)
 CALLS = 1500
+# FMI 3.0 sequences are dearer per call (early returns, event-mode rounds).
+CALLS3 = 1000
 
 
-def fuzz(script: str, fmu: Path, seed: int) -> dict:
-    cmd = [sys.executable, str(HERE / script), "--fmu", str(fmu), "--seed", str(seed), "--calls", str(CALLS)]
+def fuzz(script: str, fmu: Path, seed: int, calls: int = CALLS) -> dict:
+    cmd = [sys.executable, str(HERE / script), "--fmu", str(fmu), "--seed", str(seed), "--calls", str(calls)]
     try:
         proc = subprocess.run(cmd, env=python_env(), capture_output=True, text=True, timeout=120)
     except subprocess.TimeoutExpired:
@@ -50,10 +52,10 @@ def test_random_call_sequences_keep_every_promise(fmu, seed):
 
 @pytest.mark.parametrize("fmu,seed", [(f, SEEDS[k % 2]) for k, f in enumerate(FMUS3)], ids=[f.stem for f in FMUS3])
 def test_random_fmi3_call_sequences_keep_every_promise(fmu, seed):
-    summary = fuzz("fuzz_fmi3.py", fmu, seed)
+    summary = fuzz("fuzz_fmi3.py", fmu, seed, CALLS3)
     assert summary["n_broken"] == 0, "\n".join(summary["broken"] + ["the calls before the first:"]
                                                + summary["first_trace"])
-    assert summary["calls"] >= CALLS and summary["states"] > 5
+    assert summary["calls"] >= CALLS3 and summary["states"] > 5
 
 
 def test_every_fmu_is_fuzzed_in_both_versions():
