@@ -478,7 +478,7 @@ impl<'a> WatchValues<'a> {
             // noise, which the next free phase takes as an exact zero):
             // far above this state's own rounding, far below any real
             // distance from the stop (ON_BOUNDARY).
-            level_p: (NOISE * size + time_resolution).max(ON_BOUNDARY * size).max(sim.model.event_tolerance),
+            level_p: (NOISE * size + time_resolution).max(ON_BOUNDARY * size).max(sim.model.event_tolerance).max(f64::MIN_POSITIVE),
             level_v: (NOISE * vsize).max(ON_BOUNDARY * vsize).max(f64::MIN_POSITIVE),
             size_p: size,
             size_v: vsize,
