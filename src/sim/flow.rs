@@ -29,7 +29,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::phases::Segment;
-use super::search::ProbeBuffers;
+use super::search::{Probe, ProbeBuffers};
 use super::{Reached, SimError, Simulation};
 use crate::contact::restitution::{apply_impact, ImpactRow};
 use crate::contact::{Contact, PhaseTerm, Watch};
@@ -156,8 +156,13 @@ impl Simulation {
         let n = self.model.n_modes();
         let mut buffers = ProbeBuffers::new(&self.dynamics);
         let mut st = ModalState::zeros(n);
-        let _ = self.probe(t, &mut st, &mut buffers);
-        let Some(&(c, _)) = buffers.at_zero.first() else {
+        // At zero within its noise, or (the search's last resort) the
+        // function whose zero lies within an ulp of the time.
+        let found = match self.probe(t, &mut st, &mut buffers) {
+            Probe::Events { .. } => buffers.at_zero.first().map(|&(c, _)| c),
+            Probe::Clear { limiting, .. } => limiting,
+        };
+        let Some(c) = found else {
             return Err(SimError::NotAnInput(format!("the exact flow: no event function at zero at t = {t} where the run stopped")));
         };
         let ch = self.channels[c];
