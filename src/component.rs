@@ -155,6 +155,13 @@ impl Component {
         scene.start(start_time, inputs).map_err(|e| self.with_variable_names(e.to_string()))
     }
 
+    /// A run from the state `[q; q']` at `start_time` (see
+    /// [`Scene::start_from_state`]).
+    pub fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, String> {
+        let scene = self.scene()?;
+        scene.start_from_state(start_time, inputs, state).map_err(|e| self.with_variable_names(e.to_string()))
+    }
+
     /// Carries a run over to the current (tunable) parameter values.
     pub fn retune(&self, run: &mut dyn Run) -> Result<(), SimError> {
         self.valid().retune(run)

@@ -63,6 +63,14 @@ pub trait Scene: Send + Sync + fmt::Debug {
     /// A run from the scene's initial state at `start_time`, with the
     /// inputs (in [`Variables::inputs`] order) applied.
     fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError>;
+    /// A run from the state `[q; q']` (`state`, in the kind's own
+    /// coordinates, as [`Flow::state`] gives them) at `start_time`: what
+    /// shooting for periodic orbits starts from. Kinds without an exact
+    /// flow need not offer it.
+    fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
+        let _ = (start_time, inputs, state);
+        Err(SimError::NotAnInput("a run from a given state: this kind has no exact flow to shoot with".into()))
+    }
     /// Carries a run of this kind over to this scene's (tunable) values.
     fn retune(&self, run: &mut dyn Run) -> Result<(), SimError> {
         let _ = run;
@@ -170,6 +178,19 @@ impl Clone for Box<dyn Run> {
 pub trait Flow {
     fn state(&self) -> DVector<f64>;
     fn advance_with_jacobian(&mut self, t: f64) -> Result<DMatrix<f64>, SimError>;
+    /// Each stop's clearance now, in the scene's order.
+    fn clearances(&self) -> Vec<Clearance>;
+}
+
+/// How far a contact point is from its stop, and how fast that changes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clearance {
+    /// Positive apart, zero on the surface, negative inside a compliant stop.
+    pub gap: f64,
+    pub rate: f64,
+    /// The contact point's displacement (`w . q`) and velocity.
+    pub displacement: f64,
+    pub velocity: f64,
 }
 
 /// What happened at an event, in the words every kind shares.
@@ -218,6 +239,8 @@ pub struct EventRecord {
     pub at: String,
     /// `key=value` details (speed, restitution, reaction ...).
     pub detail: String,
+    /// The approach speed of an impact or a contact onset.
+    pub speed: Option<f64>,
     /// One line for a log.
     pub description: String,
 }

@@ -6,7 +6,7 @@
 use std::f64::consts::PI;
 
 use beamstop::component::Component;
-use beamstop::orbits::{shoot, strobe, Shooting};
+use beamstop::orbits::{continue_orbits, shoot, start_from, strobe, Continuation, Shooting, SpecialKind};
 use beamstop::solve::complex::C64;
 use nalgebra::DVector;
 
@@ -71,9 +71,114 @@ fn impacting_orbit_converges_quadratically() {
 }
 
 fn strobe_from(scene: &Component, x: &DVector<f64>) -> DVector<f64> {
-    let mut run = beamstop::orbits::start_from(scene, 0.0, x).unwrap();
-    run.advance_to(T).unwrap();
+    strobe_over(scene, x, T)
+}
+
+fn strobe_over(scene: &Component, x: &DVector<f64>, span: f64) -> DVector<f64> {
+    let mut run = start_from(scene, 0.0, x).unwrap();
+    run.advance_to(span).unwrap();
     run.flow().unwrap().state()
+}
+
+/// Impacts per forcing period after `settle` periods from `x` at `t = 0`,
+/// counted over `count` periods: brute-force simulation.
+fn impacts_per_period(scene: &Component, x: &DVector<f64>, period: f64, settle: usize, count: usize) -> f64 {
+    let mut run = start_from(scene, 0.0, x).unwrap();
+    run.set_event_recording(true);
+    run.advance_to(settle as f64 * period).unwrap();
+    run.drain_events();
+    run.advance_to((settle + count) as f64 * period).unwrap();
+    let impacts = run.drain_events().iter().filter(|e| e.speed.is_some()).count();
+    impacts as f64 / count as f64
+}
+
+#[test]
+fn grazing_located_and_the_impacting_branch_continued() {
+    // Continuation in A from the linear orbit: grazing where the amplitude
+    // A / sqrt((k - w^2)^2 + (c w)^2) = 10 A reaches the gap d = 1.
+    let scene = oscillator(0.05);
+    let mut settings = Continuation::new("A.amplitude", 0.05, 0.2);
+    settings.points = 40;
+    let diagram = continue_orbits(&scene, &settings).unwrap();
+    let grazing: Vec<_> = diagram.special.iter().filter(|s| s.kind == SpecialKind::Grazing).collect();
+    assert_eq!(grazing.len(), 1, "{:#?}", diagram.special.iter().map(|s| (s.kind, s.point.param, &s.note)).collect::<Vec<_>>());
+    let a = grazing[0].point.param;
+    eprintln!("grazing at A = {a:.15} (error {:.1e}), {} points, {} map evaluations", a - 0.1, diagram.branches[0].points.len(), diagram.evaluations);
+    assert!((a - 0.1).abs() < 1e-8, "grazing at A = {a}");
+    let branch = &diagram.branches[0];
+    assert!(branch.points.first().unwrap().param == 0.05 && branch.points.last().unwrap().param == 0.2);
+    for p in &branch.points {
+        let expected = if p.param < a { 0 } else { 1 };
+        assert!(p.profile.impacts == expected || (p.param - a).abs() < 1e-9, "A = {}: {} impacts", p.param, p.profile.impacts);
+        // Every point is a periodic orbit of the simulation itself.
+        let again = strobe_over(&scene_at(p.param), &p.orbit.state, T);
+        assert!((again - &p.orbit.state).amax() < 1e-9 * p.orbit.state.amax(), "A = {}", p.param);
+    }
+    // Beyond the grazing, the branch is the attractor a transient settles on.
+    let p = branch.points.iter().min_by(|x, y| (x.param - 0.15).abs().total_cmp(&(y.param - 0.15).abs())).unwrap();
+    let scene = scene_at(p.param);
+    let from_transient = shoot(&scene, 0.0, T, &strobe(&scene, 0.0, T, 60).unwrap(), Shooting::default()).unwrap();
+    assert!((&from_transient.state - &p.orbit.state).amax() < 1e-9, "{} against {}", from_transient.state, p.orbit.state);
+    assert!(p.orbit.stable() && from_transient.stable());
+}
+
+fn scene_at(amplitude: f64) -> Component {
+    let mut scene = oscillator(0.05);
+    scene.set(0, amplitude);
+    scene.validate().unwrap();
+    scene
+}
+
+#[test]
+fn pinned_beam_double_impact_branch_and_its_ends() {
+    // VSM12 Figure 9's regime (F = 72, omega = 0.7 omega_1, eps = 1e-3):
+    // the period-1 double-impact orbit found at d = 1.2, continued in d.
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap();
+    let mut scene = Component::from_json(&text).unwrap();
+    for (name, value) in [("F", 72.0), ("omega", 0.7 * PI * PI), ("eps", 1e-3)] {
+        let i = scene.parameters().iter().position(|p| p.name == name).unwrap();
+        scene.set(i, value);
+    }
+    scene.validate().unwrap();
+    let period = 2.0 * PI / (0.7 * PI * PI);
+    let mut settings = Continuation::new("d", 0.8, 1.66);
+    settings.start = Some(1.2);
+    settings.points = 40;
+    settings.max_branches = 2;
+    let diagram = continue_orbits(&scene, &settings).unwrap();
+    let find = |kind: SpecialKind, branch: usize| diagram.special.iter().find(|s| s.kind == kind && s.branch == branch).unwrap_or_else(|| panic!("no {kind:?}: {:#?}", diagram.special));
+    let pd = find(SpecialKind::PeriodDoubling, 0);
+    // The lower end: a third impact appears (grazing from the smooth side).
+    let gr = diagram.special.iter().find(|s| s.kind == SpecialKind::Grazing && s.branch == 0 && s.point.param < 1.0).expect("the lower grazing");
+    eprintln!("PD at d = {}, GR at d = {}; {} map evaluations", pd.point.param, gr.point.param, diagram.evaluations);
+    assert!(pd.point.param > 1.6 && gr.point.param < 0.86, "PD at {}, GR at {}", pd.point.param, gr.point.param);
+    let d = scene.parameters().iter().position(|p| p.name == "d").unwrap();
+    let at = |value: f64| {
+        let mut s = scene.clone();
+        s.set(d, value);
+        s.validate().unwrap();
+        s
+    };
+    // The period doubling: shooting on either side (an independent Newton
+    // in the state alone) puts a real multiplier on either side of -1.
+    let lowest = |value: f64| {
+        let orbit = shoot(&at(value), 0.0, period, &pd.point.orbit.state, Shooting::default()).unwrap();
+        orbit.multipliers.iter().filter(|z| z.im.abs() < 1e-9).map(|z| z.re).fold(f64::INFINITY, f64::min)
+    };
+    let (below, above) = (lowest(pd.point.param - 1e-4), lowest(pd.point.param + 1e-4));
+    assert!(below > -1.0 && above < -1.0, "multipliers {below} and {above} about d = {}", pd.point.param);
+    // The grazing: brute-force simulation from the orbit settles on 2
+    // impacts per period just above it and 3 just below.
+    let x = &gr.point.orbit.state;
+    assert_eq!(impacts_per_period(&at(gr.point.param + 1e-5), x, period, 100, 20), 2.0);
+    assert_eq!(impacts_per_period(&at(gr.point.param - 1e-5), x, period, 100, 20), 3.0);
+    // The doubled branch: period 2, and not period 1.
+    let doubled = &diagram.branches[1];
+    assert_eq!(doubled.periods, 2);
+    let p = &doubled.points[doubled.points.len() / 2];
+    let s = at(p.param);
+    assert!((strobe_over(&s, &p.orbit.state, 2.0 * period) - &p.orbit.state).amax() < 1e-8);
+    assert!((strobe_over(&s, &p.orbit.state, period) - &p.orbit.state).amax() > 1e-4);
 }
 
 #[test]

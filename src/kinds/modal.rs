@@ -9,7 +9,7 @@ use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
 use crate::interface::{self, OutputKey};
-use crate::kind::{EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Work};
+use crate::kind::{Clearance, EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Work};
 use crate::model::Model;
 use crate::readout;
 use crate::sim::{EventKind, Simulation};
@@ -89,6 +89,22 @@ impl Scene for ModalScene {
         Ok(Box::new(ModalRun { sim, outputs: self.outputs.clone() }))
     }
 
+    fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
+        let mut model = self.model()?;
+        let n = model.n_modes();
+        if state.len() != 2 * n {
+            return Err(SimError::NotAnInput(format!("a state of {} coordinates for a structure of {n} modes ([q; q'] has {})", state.len(), 2 * n)));
+        }
+        if let Some(bad) = state.iter().find(|v| !v.is_finite()) {
+            return Err(SimError::NotAnInput(format!("a state with the coordinate {bad}: it must be finite")));
+        }
+        model.initial.q.copy_from_slice(&state[..n]);
+        model.initial.qd.copy_from_slice(&state[n..]);
+        let mut sim = Simulation::new(model, start_time)?;
+        sim.set_inputs(inputs)?;
+        Ok(Box::new(ModalRun { sim, outputs: self.outputs.clone() }))
+    }
+
     fn retune(&self, run: &mut dyn Run) -> Result<(), SimError> {
         let run = run.as_any_mut().downcast_mut::<ModalRun>().expect("a run of this kind");
         run.sim.set_model(self.model()?)
@@ -156,7 +172,11 @@ impl Run for ModalRun {
                     EventKind::Contact { speed, .. } => (EventClass::ContactOnset, format!("speed={speed:e}")),
                     EventKind::Separation { penetration, .. } => (EventClass::Separation, format!("penetration={penetration:e}")),
                 };
-                EventRecord { time: e.time, class, at: model.stops[e.stop()].name.clone(), detail, description: e.describe(model) }
+                let speed = match e.kind {
+                    EventKind::Impact { speed, .. } | EventKind::Contact { speed, .. } => Some(speed),
+                    _ => None,
+                };
+                EventRecord { time: e.time, class, at: model.stops[e.stop()].name.clone(), detail, speed, description: e.describe(model) }
             })
             .collect()
     }
@@ -189,5 +209,9 @@ impl Flow for ModalRun {
 
     fn advance_with_jacobian(&mut self, t: f64) -> Result<DMatrix<f64>, SimError> {
         self.sim.advance_with_jacobian(t)
+    }
+
+    fn clearances(&self) -> Vec<Clearance> {
+        self.sim.clearances()
     }
 }

@@ -148,7 +148,11 @@ impl Run for RotatingRun {
                         (EventClass::Separation, format!("peak_force={peak_force:e} duration={duration:e} impulse={impulse:e}"))
                     }
                 };
-                EventRecord { time: e.time, class, at: "surface".into(), detail, description: e.describe() }
+                let speed = match e.kind {
+                    RotatingEventKind::Onset { speed } => Some(speed),
+                    _ => None,
+                };
+                EventRecord { time: e.time, class, at: "surface".into(), detail, speed, description: e.describe() }
             })
             .collect()
     }

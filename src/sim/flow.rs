@@ -60,6 +60,21 @@ impl Simulation {
         None
     }
 
+    /// Each stop's clearance now.
+    pub fn clearances(&self) -> Vec<crate::kind::Clearance> {
+        let st = &self.state.current;
+        self.model
+            .stops
+            .iter()
+            .map(|s| crate::kind::Clearance {
+                gap: -s.geometry.penetration(&st.q),
+                rate: -s.geometry.penetration_rate(&st.qd),
+                displacement: s.geometry.w.dot(&st.q),
+                velocity: s.geometry.w.dot(&st.qd),
+            })
+            .collect()
+    }
+
     /// The state `[q; q']` now.
     pub fn flow_state(&self) -> DVector<f64> {
         state_vector(&self.state.current)

@@ -9,6 +9,8 @@
 //!   beamstop check scene.json ...        validate scenes
 //!   beamstop modes SUPPORT N [X ...]     dimensionless beam modes as JSON
 //!   beamstop measure CONFIG.json         timed runs and results for the report (JSON out)
+//!   beamstop orbits SCENE.json --param NAME=FROM:TO ... --out DIR
+//!                                        periodic orbits continued in a parameter (orbits.rs)
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -192,6 +194,7 @@ fn modes(args: &[String]) -> Result<(), String> {
 }
 
 mod measure;
+mod orbits;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -215,6 +218,7 @@ fn main() -> ExitCode {
             Ok(())
         }),
         Some("modes") => modes(&args[1..]),
+        Some("orbits") => orbits::orbits(&args[1..], load),
         Some("measure") => match args.get(1) {
             Some(f) => measure::measure(Path::new(f)),
             None => Err(USAGE.into()),
@@ -222,7 +226,7 @@ fn main() -> ExitCode {
         Some("check") if args.len() > 1 => args[1..].iter().try_for_each(|f| {
             load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name(), s.guid()))
         }),
-        _ => Err(USAGE.into()),
+        _ => Err(format!("{USAGE}\n{}", orbits::USAGE)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,11 +1,6 @@
-//! Periodic orbits of the closed-form kinds, found directly (issue 33):
 //! Newton shooting on the stroboscopic map `x -> Phi(t0 + T; t0, x)` with
-//! the exact monodromy matrix (the flow's Jacobian through every phase and
-//! event, `crate::kind::Flow`), and the orbit's Floquet multipliers.
+//! the exact monodromy matrix, and the orbit's Floquet multipliers.
 //!
-//! It works through the simulation contract: a run is started from a state
-//! by setting the scene's initial-state parameters (`initial.q[j]`,
-//! `initial.qd[j]`), and a kind whose runs have an exact flow serves it.
 //! With an exact Jacobian Newton converges quadratically, also on orbits
 //! with impacts, chatter and sticking, as long as the sequence of events
 //! along the orbit stays the same from one iterate to the next.
@@ -15,6 +10,10 @@ use nalgebra::{DMatrix, DVector};
 use crate::component::Component;
 use crate::kind::{EventClass, Run};
 use crate::solve::complex::C64;
+
+/// How far outside the unit circle a multiplier counts as unstable
+/// (rounding of the monodromy matrix).
+pub const UNIT_CIRCLE: f64 = 1e-9;
 
 /// Newton's settings.
 #[derive(Clone, Copy, Debug)]
@@ -50,31 +49,20 @@ pub struct Orbit {
 }
 
 impl Orbit {
+    pub(crate) fn new(t0: f64, period: f64, state: DVector<f64>, monodromy: DMatrix<f64>, impacts: usize, residuals: Vec<f64>) -> Orbit {
+        let multipliers: Vec<C64> = monodromy.complex_eigenvalues().iter().copied().collect();
+        let n_unstable = multipliers.iter().filter(|z| z.norm() > 1.0 + UNIT_CIRCLE).count();
+        Orbit { t0, period, state, monodromy, multipliers, n_unstable, impacts_per_period: impacts, residuals }
+    }
+
     pub fn stable(&self) -> bool {
         self.n_unstable == 0
     }
 }
 
-/// The indices of the scene's initial-state parameters, `q` then `q'`.
-fn initial_state_parameters(scene: &Component) -> Result<Vec<usize>, String> {
-    let n = scene.parameters().iter().filter(|p| p.scene_path.starts_with("initial.q[")).count();
-    (0..n)
-        .map(|j| format!("initial.q[{j}]"))
-        .chain((0..n).map(|j| format!("initial.qd[{j}]")))
-        .map(|path| scene.parameters().iter().position(|p| p.scene_path == path).ok_or_else(|| format!("the scene has no parameter at {path}")))
-        .collect()
-}
-
 /// A run of `scene` started at `t0` in state `x` (`[q; q']`).
 pub fn start_from(scene: &Component, t0: f64, x: &DVector<f64>) -> Result<Box<dyn Run>, String> {
-    let indices = initial_state_parameters(scene)?;
-    if indices.len() != x.len() {
-        return Err(format!("a state of {} coordinates for a scene of {} modes", x.len(), indices.len() / 2));
-    }
-    let mut at = scene.clone();
-    at.set_many(indices.into_iter().zip(x.iter().copied()));
-    at.validate()?;
-    at.start(t0, &vec![0.0; scene.inputs().len()])
+    scene.start_from_state(t0, &vec![0.0; scene.inputs().len()], x.as_slice())
 }
 
 /// The state after `periods` periods from the scene's own initial state at
@@ -87,7 +75,7 @@ pub fn strobe(scene: &Component, t0: f64, period: f64, periods: usize) -> Result
 }
 
 /// `Phi(x)`, its Jacobian and the impacts on the way.
-fn map(scene: &Component, t0: f64, period: f64, x: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>, usize), String> {
+pub(crate) fn map(scene: &Component, t0: f64, period: f64, x: &DVector<f64>) -> Result<(DVector<f64>, DMatrix<f64>, usize), String> {
     let mut run = start_from(scene, t0, x)?;
     run.set_event_recording(true);
     run.drain_events();
@@ -110,9 +98,7 @@ pub fn shoot(scene: &Component, t0: f64, period: f64, guess: &DVector<f64>, sett
         let size = r.amax() / x.amax().max(scale);
         residuals.push(size);
         if size <= settings.tolerance {
-            let multipliers: Vec<C64> = m.complex_eigenvalues().iter().copied().collect();
-            let n_unstable = multipliers.iter().filter(|z| z.norm() > 1.0 + 1e-9).count();
-            return Ok(Orbit { t0, period, state: x, monodromy: m, multipliers, n_unstable, impacts_per_period: impacts, residuals });
+            return Ok(Orbit::new(t0, period, x, m, impacts, residuals));
         }
         let dim = x.len();
         let j = m - DMatrix::identity(dim, dim);

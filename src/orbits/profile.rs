@@ -1,0 +1,178 @@
+//! What an orbit does over one period: its peak and size, its impacts and
+//! sticks, and its closest smooth approach to a stop (the grazing test:
+//! a new impact appears where that approach reaches zero).
+
+use nalgebra::DVector;
+
+use super::shooting::start_from;
+use crate::component::Component;
+use crate::kind::{Clearance, EventClass, Run};
+
+/// An orbit over one period.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Profile {
+    /// The largest displacement of the first stop's contact point.
+    pub peak: f64,
+    /// The root mean square over the period of the state's 2-norm.
+    pub norm: f64,
+    /// Rigid impacts and compliant contact onsets.
+    pub impacts: usize,
+    /// Sticking onsets on rigid stops.
+    pub sticks: usize,
+    /// The smallest approach speed of those impacts.
+    pub slowest_impact: Option<f64>,
+    /// The smallest local minimum of any stop's gap reached in free flight
+    /// (without an event): where it is zero, the orbit grazes.
+    pub closest: Option<Approach>,
+    /// The first stop's displacement at the section's times (`t0 + k T`,
+    /// one per forcing period): the Poincare samples of the orbit.
+    pub section: Vec<f64>,
+}
+
+/// A smooth local minimum of a stop's gap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Approach {
+    pub stop: usize,
+    pub time: f64,
+    pub gap: f64,
+    /// The gap's second time derivative there (positive).
+    pub curvature: f64,
+}
+
+/// The clearances of a run now (it has an exact flow).
+fn clearances(run: &mut Box<dyn Run>) -> Vec<Clearance> {
+    run.flow().map(|f| f.clearances()).unwrap_or_default()
+}
+
+fn state(run: &mut Box<dyn Run>) -> DVector<f64> {
+    run.flow().map(|f| f.state()).unwrap_or_else(|| DVector::zeros(0))
+}
+
+/// The profile of the orbit through `x` at `t0` over `period` (`periods`
+/// forcing periods), sampled at no fewer than 64 points and 8 per
+/// shortest period of the structure (at most 8192), the section's times
+/// among them; each smooth minimum of a gap between two samples is then
+/// found where the gap's rate is zero.
+pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVector<f64>) -> Result<Profile, String> {
+    let mut run = start_from(scene, t0, x)?;
+    if run.flow().is_none() {
+        return Err("the scene's kind has no exact flow".into());
+    }
+    run.set_event_recording(true);
+    run.drain_events();
+    let periods = periods.max(1);
+    let per_period = ((period / periods as f64 / (run.shortest_period() / 8.0)).ceil() as usize).clamp(64usize.div_ceil(periods), 8192 / periods);
+    let samples = per_period * periods;
+    let mut before = clearances(&mut run);
+    let mut profile = Profile {
+        peak: before.first().map_or(f64::NEG_INFINITY, |c| c.displacement),
+        norm: 0.0,
+        impacts: 0,
+        sticks: 0,
+        slowest_impact: None,
+        closest: None,
+        section: before.first().map(|c| c.displacement).into_iter().collect(),
+    };
+    let mut square_sum = 0.0;
+    for k in 1..=samples {
+        let t_a = run.time();
+        let at_a = run.clone();
+        let t_b = if k == samples { t0 + period } else { t0 + period * k as f64 / samples as f64 };
+        run.advance_to(t_b).map_err(|e| e.to_string())?;
+        let events = run.drain_events();
+        for e in &events {
+            match e.class {
+                EventClass::Impact | EventClass::ContactOnset => {
+                    profile.impacts += 1;
+                    if let Some(v) = e.speed {
+                        profile.slowest_impact = Some(profile.slowest_impact.map_or(v.abs(), |s: f64| s.min(v.abs())));
+                    }
+                }
+                EventClass::Stick => profile.sticks += 1,
+                _ => {}
+            }
+        }
+        let after = clearances(&mut run);
+        if let Some(first) = after.first() {
+            profile.peak = profile.peak.max(first.displacement);
+            if k % per_period == 0 && k < samples {
+                profile.section.push(first.displacement);
+            }
+        }
+        square_sum += state(&mut run).norm_squared();
+        if events.is_empty() {
+            for (i, (a, b)) in before.iter().zip(&after).enumerate() {
+                if a.rate < 0.0 && b.rate >= 0.0 && a.gap > 0.0 && b.gap > 0.0 {
+                    let found = smooth_minimum(&at_a, i, t_a, t_b)?;
+                    if profile.closest.is_none_or(|c| found.gap < c.gap) {
+                        profile.closest = Some(found);
+                    }
+                }
+                if i == 0 && a.velocity > 0.0 && b.velocity <= 0.0 {
+                    profile.peak = profile.peak.max(smooth_maximum(&at_a, t_a, t_b)?);
+                }
+            }
+        }
+        before = after;
+    }
+    profile.norm = (square_sum / samples as f64).sqrt();
+    Ok(profile)
+}
+
+/// The clearance of stop `i` at `t` of a copy of `run` (at an earlier time).
+fn clearance_at(run: &Box<dyn Run>, i: usize, t: f64) -> Result<Clearance, String> {
+    let mut copy = run.clone();
+    copy.advance_to(t).map_err(|e| e.to_string())?;
+    Ok(clearances(&mut copy)[i])
+}
+
+/// Where `rate` of stop `i`'s clearance changes sign in `[t_a, t_b]` (no
+/// event between): regula falsi, Illinois variant.
+fn rate_zero(run: &Box<dyn Run>, i: usize, t_a: f64, t_b: f64, rate: fn(&Clearance) -> f64) -> Result<f64, String> {
+    let (mut lo, mut hi) = (t_a, t_b);
+    let (mut f_lo, mut f_hi) = (rate(&clearance_at(run, i, lo)?), rate(&clearance_at(run, i, hi)?));
+    let mut side = 0;
+    for _ in 0..100 {
+        if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(lo.abs()) {
+            break;
+        }
+        let mut t = hi - f_hi * (hi - lo) / (f_hi - f_lo);
+        if !(t > lo && t < hi) {
+            t = 0.5 * (lo + hi);
+        }
+        let f = rate(&clearance_at(run, i, t)?);
+        if f == 0.0 {
+            return Ok(t);
+        }
+        if (f < 0.0) == (f_lo < 0.0) {
+            lo = t;
+            f_lo = f;
+            if side == -1 {
+                f_hi *= 0.5;
+            }
+            side = -1;
+        } else {
+            hi = t;
+            f_hi = f;
+            if side == 1 {
+                f_lo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Ok(if f_lo.abs() < f_hi.abs() { lo } else { hi })
+}
+
+fn smooth_minimum(run: &Box<dyn Run>, i: usize, t_a: f64, t_b: f64) -> Result<Approach, String> {
+    let time = rate_zero(run, i, t_a, t_b, |c| c.rate)?;
+    let gap = clearance_at(run, i, time)?.gap;
+    let h = 1e-3 * (t_b - t_a);
+    let curvature = (clearance_at(run, i, (time + h).min(t_b))?.rate - clearance_at(run, i, (time - h).max(t_a))?.rate)
+        / ((time + h).min(t_b) - (time - h).max(t_a));
+    Ok(Approach { stop: i, time, gap, curvature })
+}
+
+fn smooth_maximum(run: &Box<dyn Run>, t_a: f64, t_b: f64) -> Result<f64, String> {
+    let time = rate_zero(run, 0, t_a, t_b, |c| c.velocity)?;
+    Ok(clearance_at(run, 0, time)?.displacement)
+}
