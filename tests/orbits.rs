@@ -198,3 +198,95 @@ fn figure_4_orbit_with_chatter_and_sticking() {
     assert!(orbit.impacts_per_period > 5);
     assert!(orbit.stable());
 }
+
+/// WB00's chain (scenes/wagg_bishop_chain.json: two masses m = 1, springs
+/// k = 1 and dampers c = 0.1 from the ground and between them, the stop at
+/// mass 2 at x_s = 0.1 with r = 0.7, forcing (0.5, 0) cos(0.9 t)): its
+/// P(1,1) orbit in closed form, in physical coordinates. With `y = (x, v)`,
+/// `Phi = exp(A T)`, the periodic particular solution `p(t)` and the impact
+/// map `J = diag(1, 1, 1, -r)`, the state just before the impact at `t_i`
+/// solves `(I - Phi J) y = (I - Phi) p(t_i)`, and `x_2 = x_s` fixes `t_i`.
+/// Its multipliers are the eigenvalues of `Phi S`, with the saltation
+/// matrix `S = J + (F+ - J F-) e_2^T / v_2` of the impact.
+#[test]
+fn wagg_bishop_p11_orbit_against_its_closed_form() {
+    use nalgebra::{DMatrix, DVector as V};
+    let (k, c, xs, r, omega) = (1.0, 0.1, 0.1, 0.7, 0.9);
+    let period = 2.0 * PI / omega;
+    let e = DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 1.0]);
+    let mut a = DMatrix::zeros(4, 4);
+    a.view_mut((0, 2), (2, 2)).copy_from(&DMatrix::identity(2, 2));
+    a.view_mut((2, 0), (2, 2)).copy_from(&(&e * -k));
+    a.view_mut((2, 2), (2, 2)).copy_from(&(&e * -c));
+    let force = V::from_vec(vec![0.5, 0.0]);
+    // (K - W^2 M + i W C) X = f: real form [[K - W^2, -W C], [W C, K - W^2]].
+    let mut lhs = DMatrix::zeros(4, 4);
+    let stiff = &e * k - DMatrix::identity(2, 2) * (omega * omega);
+    lhs.view_mut((0, 0), (2, 2)).copy_from(&stiff);
+    lhs.view_mut((2, 2), (2, 2)).copy_from(&stiff);
+    lhs.view_mut((0, 2), (2, 2)).copy_from(&(&e * (-omega * c)));
+    lhs.view_mut((2, 0), (2, 2)).copy_from(&(&e * (omega * c)));
+    let mut rhs = V::zeros(4);
+    rhs.rows_mut(0, 2).copy_from(&force);
+    let xc = lhs.lu().solve(&rhs).unwrap();
+    let (re, im) = (xc.rows(0, 2).into_owned(), xc.rows(2, 2).into_owned());
+    // x_p = Re((re + i im) e^{i W t}) = re cos - im sin; v_p its derivative.
+    let particular = |t: f64| {
+        let (s, co) = (omega * t).sin_cos();
+        let x = &re * co - &im * s;
+        let v = (&re * -s - &im * co) * omega;
+        V::from_iterator(4, x.iter().chain(v.iter()).copied())
+    };
+    let phi = (&a * period).exp();
+    let j = DMatrix::from_diagonal(&V::from_vec(vec![1.0, 1.0, 1.0, -r]));
+    let solve = (DMatrix::identity(4, 4) - &phi * &j).lu();
+    let before = |t: f64| solve.solve(&((DMatrix::identity(4, 4) - &phi) * particular(t))).unwrap();
+    // The impact phase: x_2 = x_s approached from below (v_2 > 0), by
+    // bisection from a fine scan over one period.
+    let g = |t: f64| before(t)[1] - xs;
+    let steps = 2000;
+    let mut roots = Vec::new();
+    for i in 0..steps {
+        let (mut lo, mut hi) = (period * i as f64 / steps as f64, period * (i + 1) as f64 / steps as f64);
+        if g(lo).signum() == g(hi).signum() {
+            continue;
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if g(mid).signum() == g(lo).signum() { lo = mid } else { hi = mid }
+        }
+        if before(lo)[3] > 0.0 {
+            roots.push(lo);
+        }
+    }
+    // The admissible one: beamstop's orbit hits at that phase.
+    let scene = Component::from_json(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/wagg_bishop_chain.json")).unwrap()).unwrap();
+    let orbit = shoot(&scene, 0.0, period, &strobe(&scene, 0.0, period, 200).unwrap(), Shooting::default()).unwrap();
+    assert_eq!(orbit.impacts_per_period, 1);
+    let mut run = start_from(&scene, 0.0, &orbit.state).unwrap();
+    run.set_event_recording(true);
+    run.advance_to(period).unwrap();
+    let events = run.drain_events();
+    let impact = events.iter().find(|e| e.speed.is_some()).unwrap();
+    let t_i = *roots.iter().min_by(|x, y| (*x - impact.time).abs().total_cmp(&(*y - impact.time).abs())).unwrap();
+    let y = before(t_i);
+    eprintln!("closed form: impact at t = {t_i:.15}, v_2 = {:.15}; beamstop: t = {:.15}, speed {:.15}", y[3], impact.time, impact.speed.unwrap());
+    assert!((t_i - impact.time).abs() < 1e-10, "impact phase {t_i} against {}", impact.time);
+    assert!((y[3] - impact.speed.unwrap()).abs() < 1e-10 * y[3], "impact speed {} against {:?}", y[3], impact.speed);
+    // The multipliers: eig(Phi S).
+    let b = |t: f64| V::from_vec(vec![0.0, 0.0, 0.5 * (omega * t).cos(), 0.0]);
+    let f_minus = &a * &y + b(t_i);
+    let f_plus = &a * (&j * &y) + b(t_i);
+    let mut e2 = V::zeros(4);
+    e2[1] = 1.0;
+    let s = &j + (&f_plus - &j * &f_minus) * e2.transpose() / y[3];
+    let mut exact: Vec<C64> = (&phi * &s).complex_eigenvalues().iter().copied().collect();
+    let mut found = orbit.multipliers.clone();
+    let key = |z: &C64| (z.norm(), z.im);
+    exact.sort_by(|p, q| key(p).partial_cmp(&key(q)).unwrap());
+    found.sort_by(|p, q| key(p).partial_cmp(&key(q)).unwrap());
+    eprintln!("multipliers: closed form {exact:?}\n             beamstop    {found:?}");
+    for (z, w) in exact.iter().zip(&found) {
+        assert!((z - w).norm() < 1e-9, "multiplier {w} against {z}");
+    }
+}
