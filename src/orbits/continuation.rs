@@ -45,10 +45,12 @@ pub struct Continuation {
     /// The range the branches stay in.
     pub from: f64,
     pub to: f64,
-    /// Where the first orbit is found (default: `from`).
-    pub start: Option<f64>,
-    /// A start state `[q; q']` at `t0` (default: the state after
-    /// `transient` forcing periods from the scene's initial state).
+    /// Where orbits are found to start branches from (default: `from`);
+    /// an orbit already on a branch starts none.
+    pub starts: Vec<f64>,
+    /// A start state `[q; q']` at `t0` for the first start (default: the
+    /// state after `transient` forcing periods from the scene's initial
+    /// state).
     pub start_state: Option<DVector<f64>>,
     /// The longest step is `1 / points` of the scaled arclength (the
     /// range's width is 1): about this many points on a branch across
@@ -67,6 +69,11 @@ pub struct Continuation {
     pub forcing: Option<String>,
     /// Newton's tolerance on `|G| / |x|`.
     pub tolerance: f64,
+    /// Parameters that follow the continued one as power laws: `(name,
+    /// scale, power)` sets `name = scale * p^power` at every point (a base
+    /// excitation of fixed displacement `Y` has the acceleration amplitude
+    /// `-Y omega^2`).
+    pub tied: Vec<(String, f64, f64)>,
 }
 
 impl Continuation {
@@ -75,7 +82,7 @@ impl Continuation {
             param: param.into(),
             from,
             to,
-            start: None,
+            starts: Vec::new(),
             start_state: None,
             points: 200,
             transient: 200,
@@ -84,6 +91,7 @@ impl Continuation {
             t0: 0.0,
             forcing: None,
             tolerance: 1e-10,
+            tied: Vec::new(),
         }
     }
 }
@@ -175,11 +183,11 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             .ok_or("the scene has no harmonic load: give the forcing frequency's parameter")?,
     };
     let (lo, hi) = (settings.from.min(settings.to), settings.from.max(settings.to));
-    if !(lo < hi) || !lo.is_finite() || !hi.is_finite() {
+    if lo >= hi || !lo.is_finite() || !hi.is_finite() {
         return Err(format!("--param {}={}:{}: the range must have two different finite ends", settings.param, settings.from, settings.to));
     }
-    let start = settings.start.unwrap_or(settings.from);
-    if !(lo..=hi).contains(&start) {
+    let starts = if settings.starts.is_empty() { vec![settings.from] } else { settings.starts.clone() };
+    if let Some(start) = starts.iter().find(|s| !(lo..=hi).contains(*s)) {
         return Err(format!("the start {start} lies outside the range {lo} .. {hi}"));
     }
     let mut walker = Walker {
@@ -195,31 +203,45 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
         max_points: 10 * settings.points + 50,
         evaluations: 0,
         scenes: Default::default(),
+        restarts: Vec::new(),
+        tied: settings.tied.iter().map(|(name, scale, power)| parameter(scene, name).map(|i| (i, *scale, *power))).collect::<Result<_, _>>()?,
     };
-    let at_start = walker.scene_at(start)?;
-    let forcing_period = walker.forcing_period(&at_start);
-    let (guess, periods) = match &settings.start_state {
-        Some(x) => (x.clone(), 1),
-        None => walker.settle(&at_start, forcing_period, settings.transient, settings.max_period)?,
-    };
-    walker.weight_x = 1.0 / guess.norm().max(1e-12);
-    let orbit = shoot(&at_start, settings.t0, periods as f64 * forcing_period, &guess, Shooting { tolerance: settings.tolerance, max_iterations: 40 })
-        .map_err(|e| format!("the first orbit at {} = {start} ({periods} forcing periods): {e}", settings.param))?;
-    let first = walker.point(start, orbit)?;
-
     let mut diagram = Diagram { param: settings.param.clone(), branches: Vec::new(), special: Vec::new(), evaluations: 0 };
-    // The first branch both ways from the start; then each doubled branch.
+    // A branch both ways from each start; then each doubled branch.
     let mut queue: Vec<(usize, Point, DVector<f64>, bool)> = Vec::new();
-    {
-        let index = 0;
-        let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
-        increasing[first.orbit.state.len()] = 1.0;
-        let tangent = walker.tangent(&first, periods, &increasing)?;
-        let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &mut diagram.special, &mut queue)?;
-        let backward = walker.walk(index, periods, first, -tangent, false, &mut diagram.special, &mut queue)?;
-        let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
-        points.append(&mut forward);
-        diagram.branches.push(Branch { index, periods, points });
+    for (k, &start) in starts.iter().enumerate() {
+        let at_start = walker.scene_at(start)?;
+        let forcing_period = walker.forcing_period(&at_start);
+        let (guess, periods) = match (&settings.start_state, k) {
+            (Some(x), 0) => (x.clone(), 1),
+            _ => walker.settle(&at_start, forcing_period, settings.transient, settings.max_period)?,
+        };
+        if k == 0 {
+            walker.weight_x = 1.0 / guess.norm().max(1e-12);
+        }
+        let shooting = Shooting { tolerance: settings.tolerance, max_iterations: 40 };
+        let orbit = shoot(&at_start, settings.t0, periods as f64 * forcing_period, &guess, shooting)
+            .map_err(|e| format!("the first orbit at {} = {start} ({periods} forcing periods): {e}", settings.param))?;
+        let first = walker.point(start, orbit)?;
+        walker.restarts.insert(0, first);
+        // This start's branch, then those its grazings restart.
+        while let Some(first) = walker.restarts.pop() {
+            if diagram.branches.len() >= settings.max_branches || diagram.branches.iter().any(|b| on_branch(&walker, b, &first)) {
+                continue;
+            }
+            let index = diagram.branches.len();
+            let periods = first.periods();
+            let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
+            increasing[first.orbit.state.len()] = 1.0;
+            let tangent = walker.tangent(&first, periods, &increasing)?;
+            let mut others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
+            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut queue)?;
+            others.push(&forward);
+            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut queue)?;
+            let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
+            points.append(&mut forward);
+            diagram.branches.push(Branch { index, periods, points });
+        }
     }
     let mut next = 0;
     while next < queue.len() && diagram.branches.len() < settings.max_branches {
@@ -232,7 +254,8 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
         let index = diagram.branches.len();
         match walker.switch(&from_point, periods, &direction) {
             Ok((point, tangent)) => {
-                let points = walker.walk(index, periods, point, tangent, true, &mut diagram.special, &mut queue)?;
+                let others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
+                let points = walker.walk(index, periods, point, tangent, true, &others, &mut diagram.special, &mut queue)?;
                 diagram.branches.push(Branch { index, periods, points });
             }
             Err(e) => diagram.special.push(Special {
@@ -245,6 +268,22 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
     }
     diagram.evaluations = walker.evaluations;
     Ok(diagram)
+}
+
+/// Whether `point` lies on `branch`: the same period, and its state within
+/// 1e-3 (scaled) of the state interpolated between two consecutive points
+/// around its parameter value.
+fn on_branch(walker: &Walker, branch: &Branch, point: &Point) -> bool {
+    on_points(walker, &branch.points, point)
+}
+
+fn on_points(walker: &Walker, points: &[Point], point: &Point) -> bool {
+    points.windows(2).any(|w| {
+        let (a, b) = (&w[0], &w[1]);
+        a.periods() == point.periods()
+            && (a.param.min(b.param)..=a.param.max(b.param)).contains(&point.param)
+            && (interpolate(a, b, point.param) - &point.orbit.state).norm() * walker.weight_x < 1e-3
+    })
 }
 
 /// The index of the parameter named `name`, or the list of names.
@@ -278,6 +317,11 @@ struct Walker {
     max_points: usize,
     evaluations: usize,
     scenes: std::sync::Mutex<Vec<(f64, Component)>>,
+    /// `(parameter, scale, power)`: see [`Continuation::tied`].
+    tied: Vec<(usize, f64, f64)>,
+    /// Orbits found beyond a grazing that does not continue into them:
+    /// each starts a branch of its own.
+    restarts: Vec<Point>,
 }
 
 /// A special point located, and what happens there.
@@ -292,7 +336,7 @@ impl Walker {
             return Ok(scene.clone());
         }
         let mut scene = self.base.clone();
-        scene.set(self.param, p);
+        scene.set_many(std::iter::once((self.param, p)).chain(self.tied.iter().map(|&(i, scale, power)| (i, scale * p.powf(power)))));
         scene.validate().map_err(|e| format!("{} = {p}: {e}", self.base.parameters()[self.param].name))?;
         if cache.len() >= 8 {
             cache.remove(0);
@@ -468,7 +512,7 @@ impl Walker {
             }
             let previous = residuals.last().copied();
             if let (Some((x0, p0, step)), Some(last)) = (&from, previous) {
-                if !(size < last) {
+                if size >= last || size.is_nan() {
                     if !own {
                         // A borrowed matrix that does not converge: Newton's
                         // own at the last good iterate.
@@ -533,6 +577,7 @@ impl Walker {
         first: Point,
         tangent: DVector<f64>,
         switched: bool,
+        others: &[&[Point]],
         special: &mut Vec<Special>,
         queue: &mut Vec<(usize, Point, DVector<f64>, bool)>,
     ) -> Result<Vec<Point>, String> {
@@ -579,14 +624,18 @@ impl Walker {
                     let previous = points.len().checked_sub(2).map(|i| points[i].clone());
                     match self.cross_grazing(previous.as_ref(), &last, &tangent, periods) {
                         Ok((grazing, beyond, next_tangent)) => {
+                            let local = continues(&grazing, &beyond);
+                            let how = if local {
+                                format!("continued beyond it from {} = {}", self.name(), beyond.param)
+                            } else {
+                                format!("no orbit near it beyond; a far one at {} = {} starts another branch", self.name(), beyond.param)
+                            };
                             let note = format!(
-                                "impacts per orbit {} -> {}{}; {}; crossed by a restart at {} = {}",
+                                "impacts per orbit {} -> {}{}; {}; {how}",
                                 last.profile.impacts,
                                 beyond.profile.impacts,
                                 stability_change(&last, &beyond),
                                 grazing_measure(&grazing),
-                                self.name(),
-                                beyond.param
                             );
                             special.push(Special { kind: SpecialKind::Grazing, branch, point: grazing.clone(), note });
                             if grazing.profile.sticks != beyond.profile.sticks {
@@ -594,6 +643,11 @@ impl Walker {
                                 special.push(Special { kind: SpecialKind::Sticking, branch, point: grazing.clone(), note });
                             }
                             points.push(grazing);
+                            if !local {
+                                self.restarts.push(beyond);
+                                end("a grazing without a nearby orbit beyond it".into(), points.last().expect("a point"), special);
+                                break;
+                            }
                             points.push(beyond);
                             tangent = next_tangent;
                             ds = self.ds_max * 0.1;
@@ -639,9 +693,15 @@ impl Walker {
             let u = self.scaled(&point.orbit.state, point.param);
             let closed = points.len() > 10
                 && points[..points.len() - 10].iter().any(|q| q.profile.impacts == point.profile.impacts && (self.scaled(&q.orbit.state, q.param) - &u).norm() < 0.5 * ds);
+            // A branch that runs onto one found before ends where it joins.
+            let joins = points.len() > 2 && others.iter().any(|o| on_points(self, o, &point));
             points.push(point);
             if closed {
                 end("the branch closes on itself".into(), points.last().expect("a point"), special);
+                break;
+            }
+            if joins {
+                end("the branch joins one found before".into(), points.last().expect("a point"), special);
                 break;
             }
             // A branch whose steps stay tiny (its orbits' sensitivity grows
@@ -722,39 +782,52 @@ impl Walker {
             // of the parameter.
             grazing = self.refine_by_speed(&before, grazing, periods);
         }
+        // Beyond: the orbit with the changed impact sequence nearest to the
+        // grazing one, on either side of it (a grazing can also give birth
+        // to orbits on the side it came from, which then fold), each side
+        // at the nearest parameter value where Newton finds one.
         let sign = tangent[tangent.len() - 1].signum();
         let (lo, hi) = self.range;
         let mut why = String::from("no orbit found beyond it");
-        for fraction in [0.01, 0.1, 0.5] {
-            let p = grazing.param + sign * fraction * self.ds_max / self.weight_p;
-            if !(lo..=hi).contains(&p) {
-                return Err(format!("the grazing at {} = {} is at the end of the range", self.name(), grazing.param));
-            }
-            let scene = self.scene_at(p)?;
-            let period = periods as f64 * self.forcing_period(&scene);
-            let simulated = (|| -> Result<DVector<f64>, String> {
-                let mut run = super::shooting::start_from(&scene, self.t0, &grazing.orbit.state)?;
-                run.advance_to(self.t0 + 100.0 * period).map_err(|e| e.to_string())?;
-                Ok(run.flow().expect("a kind with an exact flow").state())
-            })();
-            for guess in [Ok(grazing.orbit.state.clone()), simulated] {
-                let Ok(guess) = guess else { continue };
-                match self.at_parameter(p, periods, &guess) {
-                    Ok(beyond) if periods > 1 && self.has_period(&beyond, periods / 2) => {
-                        why = format!("beyond it at {} = {p}, only an orbit of period {}", self.name(), periods / 2)
+        let mut best: Option<(f64, Point, f64)> = None;
+        for side in [sign, -sign] {
+            'side: for fraction in [0.01, 0.1, 0.5] {
+                let p = grazing.param + side * fraction * self.ds_max / self.weight_p;
+                if !(lo..=hi).contains(&p) {
+                    why = format!("the grazing at {} = {} is at the end of the range", self.name(), grazing.param);
+                    break;
+                }
+                let scene = self.scene_at(p)?;
+                let period = periods as f64 * self.forcing_period(&scene);
+                let simulated = (|| -> Result<DVector<f64>, String> {
+                    let mut run = super::shooting::start_from(&scene, self.t0, &grazing.orbit.state)?;
+                    run.advance_to(self.t0 + 100.0 * period).map_err(|e| e.to_string())?;
+                    Ok(run.flow().expect("a kind with an exact flow").state())
+                })();
+                for guess in [Ok(grazing.orbit.state.clone()), simulated] {
+                    let Ok(guess) = guess else { continue };
+                    match self.at_parameter(p, periods, &guess) {
+                        Ok(beyond) if periods > 1 && self.has_period(&beyond, periods / 2) => {
+                            why = format!("beyond it at {} = {p}, only an orbit of period {}", self.name(), periods / 2)
+                        }
+                        Ok(beyond) if beyond.profile.impacts != grazing.profile.impacts => {
+                            let distance = (self.scaled(&beyond.orbit.state, beyond.param) - self.scaled(&grazing.orbit.state, grazing.param)).norm();
+                            if best.as_ref().map_or(true, |b| distance < b.0) {
+                                best = Some((distance, beyond, side));
+                            }
+                            break 'side;
+                        }
+                        Ok(_) => why = format!("Newton at {} = {p} returned to the orbit without the new impact", self.name()),
+                        Err(e) => why = e,
                     }
-                    Ok(beyond) if beyond.profile.impacts != grazing.profile.impacts => {
-                        let mut direction = DVector::zeros(tangent.len());
-                        direction[tangent.len() - 1] = sign;
-                        let next_tangent = self.tangent(&beyond, periods, &direction)?;
-                        return Ok((grazing, beyond, next_tangent));
-                    }
-                    Ok(_) => why = format!("Newton at {} = {p} returned to the orbit without the new impact", self.name()),
-                    Err(e) => why = e,
                 }
             }
         }
-        Err(why)
+        let (_, beyond, side) = best.ok_or(why)?;
+        let mut direction = DVector::zeros(tangent.len());
+        direction[tangent.len() - 1] = side;
+        let next_tangent = self.tangent(&beyond, periods, &direction)?;
+        Ok((grazing, beyond, next_tangent))
     }
 
     /// The grazing approached from the impacting side (`a`, then `b`, on
@@ -913,7 +986,7 @@ impl Walker {
                 break;
             }
             let mut s = if bisect { 0.5 * (s_lo + s_hi) } else { s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) };
-            if !(s > s_lo.min(s_hi) && s < s_lo.max(s_hi)) || !s.is_finite() {
+            if !(s > s_lo.min(s_hi) && s < s_lo.max(s_hi) && s.is_finite()) {
                 s = 0.5 * (s_lo + s_hi);
             }
             let u_pred = &ua + tangent_a * s;
@@ -925,7 +998,7 @@ impl Walker {
                     best_hi = point;
                     side = 0;
                 }
-                Some(f) if f == 0.0 => return Ok(point),
+                Some(0.0) => return Ok(point),
                 Some(f) if (f < 0.0) == (f_lo < 0.0) => {
                     s_lo = s;
                     f_lo = f;
@@ -967,6 +1040,19 @@ impl Walker {
         }
         let tangent = self.tangent_from(&e, &v)?;
         Ok((point, tangent))
+    }
+}
+
+/// Whether `beyond` continues the branch through `grazing` (rather than
+/// being another orbit Newton found there): a new impact is slow (below a
+/// tenth of the orbit's other impacts' speeds), a lost one leaves a close
+/// approach (below a tenth of the peak's size).
+fn continues(grazing: &Point, beyond: &Point) -> bool {
+    if beyond.profile.impacts > grazing.profile.impacts {
+        let scale = grazing.profile.slowest_impact.unwrap_or(f64::INFINITY).min(beyond.orbit.state.amax());
+        beyond.profile.slowest_impact.is_some_and(|v| v < 0.1 * scale)
+    } else {
+        beyond.profile.closest.is_some_and(|c| c.gap < 0.1 * beyond.profile.peak.abs())
     }
 }
 

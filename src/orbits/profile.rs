@@ -11,7 +11,8 @@ use crate::kind::{Clearance, EventClass, Run};
 /// An orbit over one period.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
-    /// The largest displacement of the first stop's contact point.
+    /// The largest displacement of the first stop's contact point (at the
+    /// samples, the events and the smooth maxima between samples).
     pub peak: f64,
     /// The root mean square over the period of the state's 2-norm.
     pub norm: f64,
@@ -92,6 +93,11 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
                 _ => {}
             }
         }
+        // The first stop's displacement at each event (an impact's
+        // displacement peaks there, between samples).
+        for e in &events {
+            profile.peak = profile.peak.max(clearance_at(at_a.as_ref(), 0, e.time)?.displacement);
+        }
         let after = clearances(&mut run);
         if let Some(first) = after.first() {
             profile.peak = profile.peak.max(first.displacement);
@@ -103,13 +109,13 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
         if events.is_empty() {
             for (i, (a, b)) in before.iter().zip(&after).enumerate() {
                 if a.rate < 0.0 && b.rate >= 0.0 && a.gap > 0.0 && b.gap > 0.0 {
-                    let found = smooth_minimum(&at_a, i, t_a, t_b)?;
-                    if profile.closest.is_none_or(|c| found.gap < c.gap) {
+                    let found = smooth_minimum(at_a.as_ref(), i, t_a, t_b)?;
+                    if profile.closest.map_or(true, |c| found.gap < c.gap) {
                         profile.closest = Some(found);
                     }
                 }
                 if i == 0 && a.velocity > 0.0 && b.velocity <= 0.0 {
-                    profile.peak = profile.peak.max(smooth_maximum(&at_a, t_a, t_b)?);
+                    profile.peak = profile.peak.max(smooth_maximum(at_a.as_ref(), t_a, t_b)?);
                 }
             }
         }
@@ -120,15 +126,15 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
 }
 
 /// The clearance of stop `i` at `t` of a copy of `run` (at an earlier time).
-fn clearance_at(run: &Box<dyn Run>, i: usize, t: f64) -> Result<Clearance, String> {
-    let mut copy = run.clone();
+fn clearance_at(run: &dyn Run, i: usize, t: f64) -> Result<Clearance, String> {
+    let mut copy = run.boxed_clone();
     copy.advance_to(t).map_err(|e| e.to_string())?;
     Ok(clearances(&mut copy)[i])
 }
 
 /// Where `rate` of stop `i`'s clearance changes sign in `[t_a, t_b]` (no
 /// event between): regula falsi, Illinois variant.
-fn rate_zero(run: &Box<dyn Run>, i: usize, t_a: f64, t_b: f64, rate: fn(&Clearance) -> f64) -> Result<f64, String> {
+fn rate_zero(run: &dyn Run, i: usize, t_a: f64, t_b: f64, rate: fn(&Clearance) -> f64) -> Result<f64, String> {
     let (mut lo, mut hi) = (t_a, t_b);
     let (mut f_lo, mut f_hi) = (rate(&clearance_at(run, i, lo)?), rate(&clearance_at(run, i, hi)?));
     let mut side = 0;
@@ -163,7 +169,7 @@ fn rate_zero(run: &Box<dyn Run>, i: usize, t_a: f64, t_b: f64, rate: fn(&Clearan
     Ok(if f_lo.abs() < f_hi.abs() { lo } else { hi })
 }
 
-fn smooth_minimum(run: &Box<dyn Run>, i: usize, t_a: f64, t_b: f64) -> Result<Approach, String> {
+fn smooth_minimum(run: &dyn Run, i: usize, t_a: f64, t_b: f64) -> Result<Approach, String> {
     let time = rate_zero(run, i, t_a, t_b, |c| c.rate)?;
     let gap = clearance_at(run, i, time)?.gap;
     let h = 1e-3 * (t_b - t_a);
@@ -172,7 +178,7 @@ fn smooth_minimum(run: &Box<dyn Run>, i: usize, t_a: f64, t_b: f64) -> Result<Ap
     Ok(Approach { stop: i, time, gap, curvature })
 }
 
-fn smooth_maximum(run: &Box<dyn Run>, t_a: f64, t_b: f64) -> Result<f64, String> {
+fn smooth_maximum(run: &dyn Run, t_a: f64, t_b: f64) -> Result<f64, String> {
     let time = rate_zero(run, 0, t_a, t_b, |c| c.velocity)?;
     Ok(clearance_at(run, 0, time)?.displacement)
 }

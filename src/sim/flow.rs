@@ -111,12 +111,13 @@ impl Simulation {
     /// `t0` in state `x0`) from `t0` to `t1` (module doc).
     fn phase_transition(&self, t0: f64, x0: &ModalState, t1: f64) -> Result<DMatrix<f64>, SimError> {
         let n = self.model.n_modes();
-        let from = |start: &ModalState| -> Result<DVector<f64>, SimError> {
-            let mut sim = self.clone();
-            sim.state.anchor = start.clone();
+        // One copy whose segment is rebuilt from each start state.
+        let mut sim = self.clone();
+        let mut out = ModalState::zeros(n);
+        let mut from = |start: &ModalState| -> Result<DVector<f64>, SimError> {
+            sim.state.anchor.clone_from(start);
             sim.state.anchor_time = t0;
             sim.rebuild_segment()?;
-            let mut out = ModalState::zeros(n);
             sim.state_at(t1, &mut out);
             Ok(state_vector(&out))
         };

@@ -7,12 +7,14 @@ use beamstop::orbits::{continue_orbits, table, Continuation};
 use beamstop::Component;
 use nalgebra::DVector;
 
-pub const USAGE: &str = "  beamstop orbits SCENE.json --param NAME=FROM:TO [--start VALUE] [--set NAME=VALUE ...]
-                 [--from-state X1,X2,...] [--points N] [--transient PERIODS] [--max-period M]
+pub const USAGE: &str = "  beamstop orbits SCENE.json --param NAME=FROM:TO [--start VALUE ...] [--set NAME=VALUE ...]
+                 [--tie NAME=SCALE*PARAM^POWER ...] [--from-state X1,X2,...] [--points N]
+                 [--transient PERIODS] [--max-period M]
                  [--max-branches B] [--phase T0] [--forcing NAME] --out DIR
                                           continue the periodic orbits in parameter NAME over FROM..TO (the first
-                                          orbit from a simulated transient at START, default FROM; or from the
-                                          state [q; q'] given at phase T0): DIR/branch.csv, DIR/special.csv";
+                                          orbits from simulated transients at each START, default FROM; or from the
+                                          state [q; q'] given at phase T0), NAME tied to it by --tie as a power
+                                          law: DIR/branch.csv, DIR/special.csv";
 
 fn number(text: &str, what: &str) -> Result<f64, String> {
     text.trim().parse::<f64>().map_err(|_| format!("{what}: '{text}' is not a number"))
@@ -23,6 +25,7 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
     let mut range = None;
     let mut out = None;
     let mut sets = Vec::new();
+    let mut ties = Vec::new();
     let mut options: Vec<(String, String)> = Vec::new();
     let mut i = 0;
     while i < args.len() {
@@ -33,6 +36,7 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
                 "param" => range = Some(value),
                 "set" => sets.push(value),
                 "out" => out = Some(PathBuf::from(value)),
+"tie" => ties.push(value),
                 "start" | "from-state" | "points" | "transient" | "max-period" | "max-branches" | "phase" | "forcing" => options.push((name.into(), value)),
                 _ => return Err(format!("orbits: unknown option --{name}\n{USAGE}")),
             }
@@ -62,7 +66,7 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
         let what = format!("--{name}");
         let count = || -> Result<usize, String> { value.parse::<usize>().ok().filter(|&n| n >= 1).ok_or(format!("{what} {value}: a whole number >= 1")) };
         match name.as_str() {
-            "start" => settings.start = Some(number(value, &what)?),
+            "start" => settings.starts.push(number(value, &what)?),
             "from-state" => {
                 let x: Vec<f64> = value.split(',').map(|v| number(v, &what)).collect::<Result<_, _>>()?;
                 settings.start_state = Some(DVector::from_vec(x));
@@ -75,6 +79,9 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
             "forcing" => settings.forcing = Some(value.clone()),
             _ => unreachable!("options are checked above"),
         }
+    }
+    for tie in &ties {
+        settings.tied.push(parse_tie(tie, name)?);
     }
     let clock = std::time::Instant::now();
     let diagram = continue_orbits(&scene, &settings)?;
@@ -94,4 +101,23 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
     }
     println!("{} map evaluations in {seconds:.3} s; {}", diagram.evaluations, out.display());
     Ok(())
+}
+
+/// `NAME=SCALE*PARAM^POWER` (or `PARAM^POWER`, `SCALE*PARAM`, `**` for `^`).
+fn parse_tie(text: &str, param: &str) -> Result<(String, f64, f64), String> {
+    let bad = || format!("--tie {text}: NAME=SCALE*{param}^POWER");
+    let (name, law) = text.split_once('=').ok_or_else(bad)?;
+    let law = law.replace("**", "^").replace(' ', "");
+    let (scale, rest) = match law.split_once('*') {
+        Some((scale, rest)) => (number(scale, "--tie SCALE")?, rest.to_string()),
+        None => (1.0, law.clone()),
+    };
+    let (base, power) = match rest.split_once('^') {
+        Some((base, power)) => (base.to_string(), number(power, "--tie POWER")?),
+        None => (rest.clone(), 1.0),
+    };
+    if base != param {
+        return Err(format!("{}: the law must be in the continued parameter {param}", bad()));
+    }
+    Ok((name.to_string(), scale, power))
 }
