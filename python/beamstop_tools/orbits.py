@@ -117,7 +117,7 @@ def _segments(rows: list[dict], param: str):
 
 def plot(orbits: Orbits, path: str | Path, sweep: pa.Table | None = None, title: str = "",
          output_label: str = "first stop's displacement") -> None:
-    """Section samples and peak against the parameter: stable branches solid,
+    """Section samples and impacts per period against the parameter: stable branches solid,
     unstable dashed, special points marked, the sweep's samples in grey."""
     import matplotlib
 
@@ -132,29 +132,28 @@ def plot(orbits: Orbits, path: str | Path, sweep: pa.Table | None = None, title:
             if r.get("error"):
                 continue
             ax[0].plot([r[param]] * len(r["poincare"]), r["poincare"], ".", ms=1.5, color="0.6", zorder=1)
-            if r.get("peak") is not None:
-                ax[1].plot(r[param], r["peak"], ".", ms=1.5, color="0.6", zorder=1)
+            ax[1].plot(r[param], r["impacts_per_period"], ".", ms=2, color="0.6", zorder=1)
         ax[0].plot([], [], ".", color="0.6", label="brute-force sweep")
     labelled = set()
     for seg in _segments(rows, param):
         stable = seg[0]["stable"]
-        style = dict(color="k" if stable else "tab:red", ls="-" if stable else "--", lw=1.0 if stable else 0.9, zorder=2)
+        style = dict(color="k" if stable else "tab:red", ls="-" if stable else "--", lw=1.0 if stable else 1.2, zorder=2)
         label = "stable" if stable else "unstable"
         x = [r[param] for r in seg]
         for k in range(len(seg[0]["section"])):
             ax[0].plot(x, [r["section"][k] for r in seg], label=None if label in labelled else label, **style)
             labelled.add(label)
-        ax[1].plot(x, [r["peak"] for r in seg], **style)
+        ax[1].plot(x, [r["impacts_per_period"] for r in seg], **style)
     markers = {"SN": ("v", "tab:blue"), "BP": ("x", "tab:purple"), "PD": ("s", "tab:orange"),
                "NS": ("D", "tab:green"), "GR": ("o", "tab:cyan"), "ST": ("^", "tab:brown"), "EP": ("|", "0.3")}
     for s in orbits.special.to_pylist():
         marker, color = markers[s["type"]]
-        kw = dict(marker=marker, color=color, ms=6, ls="none", zorder=3, mfc="none" if s["type"] != "EP" else color)
+        kw = dict(marker=marker, color=color, ms=5, ls="none", zorder=3, mfc="none" if s["type"] != "EP" else color)
         ax[0].plot([s[param]] * len(s["section"]), s["section"], label=None if s["type"] in labelled else s["type"], **kw)
-        ax[1].plot(s[param], s["peak"], **kw)
+        ax[1].plot(s[param], s["impacts_per_period"], **kw)
         labelled.add(s["type"])
     ax[0].set_ylabel(f"{output_label} at phase 0")
-    ax[1].set_ylabel(f"peak of the {output_label}")
+    ax[1].set_ylabel("impacts per forcing period")
     ax[1].set_xlabel(param)
     ax[0].legend(fontsize=7, ncol=4, loc="best")
     if title:

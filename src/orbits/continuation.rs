@@ -947,7 +947,7 @@ impl Walker {
                 found.push((SpecialKind::PeriodDoubling, located.map(|p| (p, format!("a multiplier through -1{}", stability_change(a, b))))));
             }
             let unstable_pairs = |p: &Point| p.orbit.multipliers.iter().filter(|z| z.im > 1e-9 * z.norm() && z.norm() > 1.0).count();
-            if unstable_pairs(a) != unstable_pairs(b) {
+            if unstable_pairs(a) != unstable_pairs(b) && a.orbit.n_unstable.abs_diff(b.orbit.n_unstable) == 2 {
                 let psi = |p: &Point| {
                     p.orbit.multipliers.iter().filter(|z| z.im > 1e-9 * z.norm()).map(|z| z.norm() - 1.0).min_by(|x, y| x.abs().total_cmp(&y.abs()))
                 };
