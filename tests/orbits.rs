@@ -289,3 +289,24 @@ fn wagg_bishop_p11_orbit_against_its_closed_form() {
         assert!((z - w).norm() < 1e-9, "multiplier {w} against {z}");
     }
 }
+
+#[test]
+fn a_run_from_a_state_refuses_what_it_cannot_start_from() {
+    let scene = oscillator(0.05);
+    let short = start_from(&scene, 0.0, &DVector::from_vec(vec![1.0])).unwrap_err();
+    assert!(short.contains("a state of 1 coordinates for a structure of 1 modes"), "{short}");
+    let nan = start_from(&scene, 0.0, &DVector::from_vec(vec![f64::NAN, 0.0])).unwrap_err();
+    assert!(nan.contains("NaN") && nan.contains("finite"), "{nan}");
+    // Inside the stop: refused as the scene's own initial state would be.
+    let inside = start_from(&scene, 0.0, &DVector::from_vec(vec![1.5, 0.0])).unwrap_err();
+    assert!(inside.contains("penetrates"), "{inside}");
+    // The rotating beam is integrated: no exact flow to shoot with.
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/rotating_beam.json")).unwrap();
+    let rotating = Component::from_json(&text).unwrap();
+    let refused = start_from(&rotating, 0.0, &DVector::zeros(4)).unwrap_err();
+    assert!(refused.contains("no exact flow"), "{refused}");
+    let mut settings = Continuation::new("nonexistent", 0.0, 1.0);
+    settings.points = 10;
+    let e = continue_orbits(&scene, &settings).unwrap_err();
+    assert!(e.contains("no parameter 'nonexistent'") && e.contains("A.amplitude"), "{e}");
+}

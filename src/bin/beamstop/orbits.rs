@@ -36,7 +36,7 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
                 "param" => range = Some(value),
                 "set" => sets.push(value),
                 "out" => out = Some(PathBuf::from(value)),
-"tie" => ties.push(value),
+                "tie" => ties.push(value),
                 "start" | "from-state" | "points" | "transient" | "max-period" | "max-branches" | "phase" | "forcing" => options.push((name.into(), value)),
                 _ => return Err(format!("orbits: unknown option --{name}\n{USAGE}")),
             }
@@ -98,6 +98,9 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
     }
     for s in &diagram.special {
         println!("  {} on branch {} at {name} = {}: {}", s.kind.code(), s.branch, s.point.param, s.note);
+    }
+    for note in &diagram.notes {
+        println!("  note: {note}");
     }
     println!("{} map evaluations in {seconds:.3} s; {}", diagram.evaluations, out.display());
     Ok(())

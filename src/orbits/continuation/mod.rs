@@ -1,0 +1,297 @@
+//! Pseudo-arclength continuation of periodic orbits in one scene
+//! parameter, and the special points on the way.
+//!
+//! An orbit of period `m T` (T the forcing period) is a zero of `G(x, p) =
+//! Phi(x; p) - x`, `Phi` the stroboscopic map over `m T` at phase `t0`.
+//! Its Jacobian is `[M - I, G_p]`: `M` the exact monodromy matrix, `G_p`
+//! by central differences in `p` (a parameter such as the gap rebuilds the
+//! model; a forcing frequency also changes the period). Steps are taken in
+//! scaled coordinates (the state by its size at the start, the parameter
+//! by the range's width): a tangent predictor, then Newton on `G = 0`
+//! within the hyperplane normal to the tangent, so a branch goes round its
+//! folds. The map is continuous where the impact sequence changes
+//! (grazing, a chatter ending in a stick), so a branch continues across it.
+//!
+//! Special points, detected between consecutive points and located on the
+//! branch by regula falsi (Illinois) in the arclength:
+//!
+//! | type | test function |
+//! |---|---|
+//! | SN (fold) | the tangent's parameter component changes sign (`det(M - I)` located) |
+//! | BP | `det(M - I)` changes sign without a fold |
+//! | PD | `det(M + I)` changes sign; the doubled branch is followed from there |
+//! | NS | a complex pair of multipliers crosses the unit circle (`|mu| - 1`) |
+//! | GR | the impacts per period change: the closest smooth approach to a stop reaches zero (`gap`; `-v^2 / 2 gap''` on the side with the new slow impact) |
+//! | ST | the sticks per period change (bisection: a threshold decision) |
+//! | EP | where a branch ends, and why |
+//!
+//! Where the impact sequence changes, the multipliers jump (the saltation
+//! matrix of an impact at speed `v` grows as `1/v`): a stability change
+//! there is reported on the GR or ST point, not as a smooth bifurcation.
+//!
+//! The work is split by job: [`corrector`] holds the problem (the scene at
+//! a parameter value, the map, its Jacobian, scaling, Newton's corrector);
+//! [`walk`] follows a branch; [`special`] detects and locates special
+//! points; [`grazing`] crosses a grazing or ends a branch there.
+
+mod corrector;
+mod grazing;
+mod special;
+mod walk;
+
+use nalgebra::DVector;
+
+use super::profile::Profile;
+use super::shooting::Orbit;
+use crate::component::Component;
+use corrector::{interpolate, Walker};
+
+/// What to continue, and how far.
+#[derive(Clone, Debug)]
+pub struct Continuation {
+    /// The parameter, by its FMU name.
+    pub param: String,
+    /// The range the branches stay in.
+    pub from: f64,
+    pub to: f64,
+    /// Where orbits are found to start branches from (default: `from`);
+    /// an orbit already on a branch starts none.
+    pub starts: Vec<f64>,
+    /// A start state `[q; q']` at `t0` for the first start (default: the
+    /// state after `transient` forcing periods from the scene's initial
+    /// state).
+    pub start_state: Option<DVector<f64>>,
+    /// The longest step is `1 / points` of the scaled arclength (the
+    /// range's width is 1): about this many points on a branch across
+    /// the range.
+    pub points: usize,
+    /// Forcing periods simulated before the first orbit is sought.
+    pub transient: usize,
+    /// The longest period, in forcing periods, sought at the start and
+    /// reached by period doubling.
+    pub max_period: usize,
+    /// At most this many branches (the first, and those switched onto).
+    pub max_branches: usize,
+    /// The phase of the stroboscopic section.
+    pub t0: f64,
+    /// The forcing frequency's parameter (default: the first load's).
+    pub forcing: Option<String>,
+    /// Newton's tolerance on `|G| / |x|`.
+    pub tolerance: f64,
+    /// Parameters that follow the continued one as power laws: `(name,
+    /// scale, power)` sets `name = scale * p^power` at every point (a base
+    /// excitation of fixed displacement `Y` has the acceleration amplitude
+    /// `-Y omega^2`).
+    pub tied: Vec<(String, f64, f64)>,
+}
+
+impl Continuation {
+    pub fn new(param: &str, from: f64, to: f64) -> Continuation {
+        Continuation {
+            param: param.into(),
+            from,
+            to,
+            starts: Vec::new(),
+            start_state: None,
+            points: 200,
+            transient: 200,
+            max_period: 8,
+            max_branches: 8,
+            t0: 0.0,
+            forcing: None,
+            tolerance: 1e-10,
+            tied: Vec::new(),
+        }
+    }
+}
+
+/// One continued orbit.
+#[derive(Clone, Debug)]
+pub struct Point {
+    pub param: f64,
+    /// The forcing period there.
+    pub forcing_period: f64,
+    pub orbit: Orbit,
+    pub profile: Profile,
+    /// How the orbit's image moves with the parameter (`d Phi / d p`, by
+    /// central differences).
+    pub param_derivative: DVector<f64>,
+}
+
+impl Point {
+    /// Forcing periods per orbit period.
+    pub fn periods(&self) -> usize {
+        (self.orbit.period / self.forcing_period).round() as usize
+    }
+}
+
+/// The points of one branch in arclength order.
+#[derive(Clone, Debug)]
+pub struct Branch {
+    pub index: usize,
+    /// The orbit's period in forcing periods.
+    pub periods: usize,
+    pub points: Vec<Point>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpecialKind {
+    SaddleNode,
+    BranchPoint,
+    PeriodDoubling,
+    NeimarkSacker,
+    Grazing,
+    Sticking,
+    End,
+}
+
+impl SpecialKind {
+    /// The code the special-points table uses.
+    pub fn code(self) -> &'static str {
+        match self {
+            SpecialKind::SaddleNode => "SN",
+            SpecialKind::BranchPoint => "BP",
+            SpecialKind::PeriodDoubling => "PD",
+            SpecialKind::NeimarkSacker => "NS",
+            SpecialKind::Grazing => "GR",
+            SpecialKind::Sticking => "ST",
+            SpecialKind::End => "EP",
+        }
+    }
+}
+
+/// A special point on a branch.
+#[derive(Clone, Debug)]
+pub struct Special {
+    pub kind: SpecialKind,
+    pub branch: usize,
+    pub point: Point,
+    /// What happens there, in a sentence.
+    pub note: String,
+}
+
+/// Every branch found and its special points.
+#[derive(Clone, Debug)]
+pub struct Diagram {
+    pub param: String,
+    pub branches: Vec<Branch>,
+    pub special: Vec<Special>,
+    /// What was not followed, and why (a start without an orbit, a
+    /// doubling beyond the longest period, the branch limit).
+    pub notes: Vec<String>,
+    /// Map evaluations (each one period of the flow).
+    pub evaluations: usize,
+}
+
+/// The orbits of a scene over one parameter's range (module doc).
+pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Diagram, String> {
+    let param = parameter(scene, &settings.param)?;
+    let forcing = match &settings.forcing {
+        Some(name) => parameter(scene, name)?,
+        None => scene
+            .parameters()
+            .iter()
+            .position(|p| p.scene_path.starts_with("loads[") && p.scene_path.ends_with(".omega"))
+            .ok_or("the scene has no harmonic load: give the forcing frequency's parameter")?,
+    };
+    let (lo, hi) = (settings.from.min(settings.to), settings.from.max(settings.to));
+    if lo >= hi || !lo.is_finite() || !hi.is_finite() {
+        return Err(format!("--param {}={}:{}: the range must have two different finite ends", settings.param, settings.from, settings.to));
+    }
+    let starts = if settings.starts.is_empty() { vec![settings.from] } else { settings.starts.clone() };
+    if let Some(start) = starts.iter().find(|s| !(lo..=hi).contains(*s)) {
+        return Err(format!("the start {start} lies outside the range {lo} .. {hi}"));
+    }
+    let mut walker = Walker {
+        base: scene.clone(),
+        param,
+        forcing,
+        t0: settings.t0,
+        range: (lo, hi),
+        ds_max: 1.0 / settings.points.max(2) as f64,
+        weight_p: 1.0 / (hi - lo),
+        weight_x: 1.0,
+        tolerance: settings.tolerance,
+        max_points: 10 * settings.points + 50,
+        evaluations: 0,
+        scenes: Default::default(),
+        restarts: Vec::new(),
+        tied: settings.tied.iter().map(|(name, scale, power)| parameter(scene, name).map(|i| (i, *scale, *power))).collect::<Result<_, _>>()?,
+    };
+    let mut diagram = Diagram { param: settings.param.clone(), branches: Vec::new(), special: Vec::new(), notes: Vec::new(), evaluations: 0 };
+    // Each start's branch both ways, and those its grazings restart; then
+    // the branches of twice the period at each period doubling.
+    let mut doublings: Vec<Point> = Vec::new();
+    for (k, &start) in starts.iter().enumerate() {
+        let first = match walker.first_orbit(start, settings, k == 0) {
+            Ok(first) => first,
+            Err(e) if k > 0 => {
+                diagram.notes.push(format!("the start at {} = {start}: {e}", settings.param));
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        walker.restarts.insert(0, first);
+        while let Some(first) = walker.restarts.pop() {
+            if diagram.branches.len() >= settings.max_branches || diagram.branches.iter().any(|b| on_points(&walker, &b.points, &first)) {
+                continue;
+            }
+            let index = diagram.branches.len();
+            let periods = first.periods();
+            let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
+            increasing[first.orbit.state.len()] = 1.0;
+            let tangent = walker.tangent(&first, periods, &increasing)?;
+            let mut others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
+            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut doublings)?;
+            others.push(&forward);
+            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut doublings)?;
+            let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
+            points.append(&mut forward);
+            diagram.branches.push(Branch { index, periods, points });
+        }
+    }
+    let mut next = 0;
+    while next < doublings.len() && diagram.branches.len() < settings.max_branches {
+        let at = doublings[next].clone();
+        next += 1;
+        let periods = 2 * at.periods();
+        if periods > settings.max_period {
+            diagram.notes.push(format!("the period doubling at {} = {}: period {periods} is beyond --max-period", settings.param, at.param));
+            continue;
+        }
+        let index = diagram.branches.len();
+        match walker.switch(&at, periods) {
+            Ok((point, tangent)) => {
+                let others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
+                let points = walker.walk(index, periods, point, tangent, true, &others, &mut diagram.special, &mut doublings)?;
+                diagram.branches.push(Branch { index, periods, points });
+            }
+            Err(e) => diagram.notes.push(format!("the period doubling at {} = {}: no switch onto the doubled branch: {e}", settings.param, at.param)),
+        }
+    }
+    if next < doublings.len() || !walker.restarts.is_empty() {
+        diagram.notes.push(format!("--max-branches {} reached: not followed further", settings.max_branches));
+    }
+    diagram.evaluations = walker.evaluations;
+    Ok(diagram)
+}
+
+/// Whether `point` lies on the branch through `points`: the same period,
+/// and its state within 1e-3 (scaled) of the state interpolated between two
+/// consecutive points around its parameter value.
+fn on_points(walker: &Walker, points: &[Point], point: &Point) -> bool {
+    points.windows(2).any(|w| {
+        let (a, b) = (&w[0], &w[1]);
+        a.periods() == point.periods()
+            && (a.param.min(b.param)..=a.param.max(b.param)).contains(&point.param)
+            && (interpolate(a, b, point.param) - &point.orbit.state).norm() * walker.weight_x < 1e-3
+    })
+}
+
+/// The index of the parameter named `name`, or the list of names.
+fn parameter(scene: &Component, name: &str) -> Result<usize, String> {
+    scene.parameters().iter().position(|p| p.name == name).ok_or_else(|| {
+        let names: Vec<&str> = scene.parameters().iter().map(|p| p.name.as_str()).collect();
+        format!("the scene has no parameter '{name}' (it has {})", names.join(", "))
+    })
+}

@@ -1,0 +1,149 @@
+//! Following a branch: predictor, corrector, step control, and where a
+//! branch ends.
+
+use nalgebra::DVector;
+
+use super::corrector::{interpolate, Walker};
+use super::grazing::grazing_ahead;
+use super::{on_points, Point, Special, SpecialKind};
+
+impl Walker {
+    /// Follows a branch from `first` along `tangent` until it leaves the
+    /// range or cannot go on; special points go to `special`, period
+    /// doublings to `doublings` as well. Returns the points in walking order.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn walk(
+        &mut self,
+        branch: usize,
+        periods: usize,
+        first: Point,
+        tangent: DVector<f64>,
+        switched: bool,
+        others: &[&[Point]],
+        special: &mut Vec<Special>,
+        doublings: &mut Vec<Point>,
+    ) -> Result<Vec<Point>, String> {
+        let mut points = vec![first];
+        let mut tangent = tangent;
+        let mut ds = self.ds_max;
+        let ds_min = self.ds_max * 1e-6;
+        let mut tried_crossing = false;
+        let mut small_steps = 0;
+        let (lo, hi) = self.range;
+        let end = |why: String, at: &Point, special: &mut Vec<Special>| {
+            special.push(Special { kind: SpecialKind::End, branch, point: at.clone(), note: why });
+        };
+        loop {
+            if points.len() >= self.max_points {
+                end(format!("{} points: the limit", points.len()), points.last().expect("a point"), special);
+                break;
+            }
+            let last = points.last().expect("a point").clone();
+            let u_pred = self.scaled(&last.orbit.state, last.param) + &tangent * ds;
+            let attempt = self.correct(&u_pred, &tangent, periods, Some(&last)).and_then(|(point, e, iterations)| {
+                let next_tangent = self.tangent_from(&e, &tangent)?;
+                Ok((point, next_tangent, iterations))
+            });
+            // Newton cannot cross a grazing well (the map's square root):
+            // cross it directly when a step fails with the grazing within
+            // reach, or when the steps have collapsed.
+            let grazing_near = !tried_crossing
+                && points.len() >= 2
+                && grazing_ahead(&points[points.len() - 2], &last, self.distance(&points[points.len() - 2], &last)).is_some_and(|s| s < 2.0 * ds);
+            let stalled = (ds < self.ds_max * 1e-2 || grazing_near) && !tried_crossing;
+            let (point, next_tangent, iterations) = match attempt {
+                Ok(found) if found.1.dot(&tangent) > 0.9 || ds <= ds_min => found,
+                Ok(_) | Err(_) if ds > ds_min && !stalled => {
+                    ds *= 0.5;
+                    continue;
+                }
+                failed => {
+                    let e = failed.err().unwrap_or_else(|| "the branch turns too fast".into());
+                    tried_crossing = true;
+                    // Newton fails at a grazing (the map's square root):
+                    // locate it, then restart on the far side.
+                    let previous = points.len().checked_sub(2).map(|i| points[i].clone());
+                    match self.cross_grazing(previous.as_ref(), &last, &tangent, periods) {
+                        Ok((grazing, beyond, next_tangent)) => {
+                            let local = self.report_crossing(branch, &last, &grazing, &beyond, special);
+                            points.push(grazing);
+                            if !local {
+                                self.restarts.push(beyond);
+                                end("a grazing without a nearby orbit beyond it".into(), points.last().expect("a point"), special);
+                                break;
+                            }
+                            points.push(beyond);
+                            tangent = next_tangent;
+                            ds = self.ds_max * 0.1;
+                            tried_crossing = false;
+                            continue;
+                        }
+                        Err(_) if ds > ds_min => {
+                            ds *= 0.5;
+                            continue;
+                        }
+                        Err(why) => {
+                            end(format!("the branch cannot be followed past {} = {}: {e} ({why})", self.name(), last.param), &last, special);
+                            break;
+                        }
+                    }
+                }
+            };
+            if !(lo..=hi).contains(&point.param) {
+                // The end of the range: the orbit at the bound itself.
+                let bound = if point.param > hi { hi } else { lo };
+                if last.param == bound {
+                    end(format!("the end of the range, {} = {bound}", self.name()), &last, special);
+                    break;
+                }
+                let guess = interpolate(&last, &point, bound);
+                match self.at_parameter(bound, periods, &guess) {
+                    Ok(at) => {
+                        self.detect(branch, periods, (&last, &tangent), (&at, &tangent), switched && points.len() == 1, special, doublings);
+                        points.push(at.clone());
+                        end(format!("the end of the range, {} = {bound}", self.name()), &at, special);
+                    }
+                    Err(e) => end(format!("the end of the range, {} = {bound}: {e}", self.name()), &last, special),
+                }
+                break;
+            }
+            if periods > 1 && self.has_period(&point, periods / 2) {
+                end(format!("the orbit has period {} there: the branch returns to the one it doubled", periods / 2), &last, special);
+                break;
+            }
+            self.detect(branch, periods, (&last, &tangent), (&point, &next_tangent), switched && points.len() == 1, special, doublings);
+            // A closed branch (an isola, or a doubled branch that returns
+            // to where it was born) ends where it meets itself again.
+            let closed = points.len() > 10
+                && points[..points.len() - 10].iter().any(|q| q.profile.impacts == point.profile.impacts && self.distance(q, &point) < 0.5 * ds);
+            // A branch that runs onto one found before ends where it joins.
+            let joins = points.len() > 2 && others.iter().any(|o| on_points(self, o, &point));
+            points.push(point);
+            if closed {
+                end("the branch closes on itself".into(), points.last().expect("a point"), special);
+                break;
+            }
+            if joins {
+                end("the branch joins one found before".into(), points.last().expect("a point"), special);
+                break;
+            }
+            // A branch whose steps stay tiny (its orbits' sensitivity grows
+            // without bound) ends there.
+            small_steps = if ds < 1e-3 * self.ds_max { small_steps + 1 } else { 0 };
+            if small_steps > 20 {
+                let at = points.last().expect("a point");
+                let largest = at.orbit.multipliers.iter().map(|z| z.norm()).fold(0.0, f64::max);
+                end(format!("the steps stall below 1e-3 of the longest (largest multiplier {largest:.3e})"), at, special);
+                break;
+            }
+            tangent = next_tangent;
+            tried_crossing &= ds < 0.1 * self.ds_max;
+            ds = match iterations {
+                0..=4 => (ds * 1.5).min(self.ds_max),
+                5..=7 => ds,
+                _ => ds * 0.7,
+            };
+        }
+        Ok(points)
+    }
+}
