@@ -310,3 +310,43 @@ fn a_run_from_a_state_refuses_what_it_cannot_start_from() {
     let e = continue_orbits(&scene, &settings).unwrap_err();
     assert!(e.contains("no parameter 'nonexistent'") && e.contains("A.amplitude"), "{e}");
 }
+
+/// Residuals falling quadratically once near the orbit (below 1e-4: the
+/// event sequence settled) and while above rounding: each below a hundred
+/// times the square of the one before.
+fn quadratic(r: &[f64]) -> bool {
+    r.windows(2).all(|w| w[0] > 1e-4 || w[1] < 1e-12 || w[1] < 100.0 * w[0] * w[0])
+}
+
+#[test]
+fn newton_converges_quadratically_on_spring_stops_and_a_period_two_response() {
+    let load = |name: &str| Component::from_json(&std::fs::read_to_string(format!("{}/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"))).unwrap()).unwrap();
+    let cases: [(&str, &[(&str, f64)], usize, usize); 3] = [
+        // RMTM's soft and hard impacts at the scenes' own forcing (soft: at
+        // omega_1, in contact; hard: at 1.3 omega_1), and VSM12 Fig. 9's
+        // period-2 response at d = 1.64 (between the double-impact orbit's
+        // period doubling at 1.6382 and the doubled orbit's own at 1.6413).
+        // From a guess a few periods into the transient.
+        ("spring_stop_soft", &[], 1, 6),
+        ("spring_stop_hard", &[], 1, 12),
+        ("pinned_beam", &[("F", 72.0), ("omega", 0.7 * PI * PI), ("eps", 1e-3), ("d", 1.64)], 2, 4),
+    ];
+    for (name, sets, periods, transient) in cases {
+        let mut scene = load(name);
+        for (p, v) in sets {
+            let i = scene.parameters().iter().position(|q| q.name == *p).unwrap();
+            scene.set(i, *v);
+        }
+        scene.validate().unwrap();
+        let omega = scene.get(scene.parameters().iter().position(|q| q.scene_path.ends_with(".omega")).unwrap());
+        let period = 2.0 * PI / omega;
+        let guess = strobe(&scene, 0.0, period, transient).unwrap();
+        let orbit = shoot(&scene, 0.0, periods as f64 * period, &guess, Shooting::default()).unwrap();
+        eprintln!("{name}: {} impacts per orbit, residuals {:?}, largest multiplier {:.3}", orbit.impacts_per_period, orbit.residuals, orbit.multipliers.iter().map(|z| z.norm()).fold(0.0, f64::max));
+        assert!(*orbit.residuals.last().unwrap() < 1e-12 && quadratic(&orbit.residuals), "{name}: {:?}", orbit.residuals);
+        assert!(orbit.impacts_per_period > 0 && orbit.stable(), "{name}");
+        if periods == 2 {
+            assert!((strobe_over(&scene, &orbit.state, period) - &orbit.state).amax() > 1e-3 * orbit.state.amax(), "period 2, not 1");
+        }
+    }
+}
