@@ -81,9 +81,9 @@ def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out
     if not BINARY.exists():
         raise OrbitsError(f"{BINARY} is missing: run scripts/orbits (or cargo build --release) first")
     out = Path(out)
-    args = [str(BINARY), "orbits", str(scene), "--param", f"{param}={frm!r}:{to!r}", "--out", str(out),
-            "--points", str(points), "--max-branches", str(max_branches), "--transient", str(transient),
-            "--max-period", str(max_period), "--phase", repr(phase)]
+    args = [str(BINARY), "orbits", str(scene), "--param", f"{param}={float(frm)!r}:{float(to)!r}", "--out", str(out),
+            "--points", str(int(points)), "--max-branches", str(int(max_branches)), "--transient", str(int(transient)),
+            "--max-period", str(int(max_period)), "--phase", repr(float(phase))]
     for s in ([] if start is None else [start] if isinstance(start, (int, float)) else start):
         args += ["--start", repr(float(s))]
     for name, value in (sets or {}).items():
@@ -118,7 +118,8 @@ def _segments(rows: list[dict], param: str):
 def plot(orbits: Orbits, path: str | Path, sweep: pa.Table | None = None, title: str = "",
          output_label: str = "first stop's displacement") -> None:
     """Section samples and impacts per period against the parameter: stable branches solid,
-    unstable dashed, special points marked, the sweep's samples in grey."""
+    unstable dashed, special points marked (not the branches' ends), the
+    sweep's samples in grey."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -145,10 +146,12 @@ def plot(orbits: Orbits, path: str | Path, sweep: pa.Table | None = None, title:
             labelled.add(label)
         ax[1].plot(x, [r["impacts_per_period"] for r in seg], **style)
     markers = {"SN": ("v", "tab:blue"), "BP": ("x", "tab:purple"), "PD": ("s", "tab:orange"),
-               "NS": ("D", "tab:green"), "GR": ("o", "tab:cyan"), "ST": ("^", "tab:brown"), "EP": ("|", "0.3")}
+               "NS": ("D", "tab:green"), "GR": ("o", "tab:cyan"), "ST": ("^", "tab:brown")}
     for s in orbits.special.to_pylist():
+        if s["type"] == "EP":
+            continue  # every branch has two: the table says where and why
         marker, color = markers[s["type"]]
-        kw = dict(marker=marker, color=color, ms=5, ls="none", zorder=3, mfc="none" if s["type"] != "EP" else color)
+        kw = dict(marker=marker, color=color, ms=5, ls="none", zorder=3, mfc="none")
         ax[0].plot([s[param]] * len(s["section"]), s["section"], label=None if s["type"] in labelled else s["type"], **kw)
         ax[1].plot(s[param], s["impacts_per_period"], **kw)
         labelled.add(s["type"])
@@ -177,8 +180,11 @@ def on_branches(orbits: Orbits, sweep: pa.Table, periods=(1, 2), tolerance: floa
     for r in candidates:
         p, samples = r[param], r["poincare"]
         found = False
-        for a, b in zip(rows, rows[1:]):
-            if a["branch"] != b["branch"] or a["periods"] != r["period"] or not (min(a[param], b[param]) <= p <= max(a[param], b[param])):
+        # consecutive points of a branch, and each point alone (a branch
+        # of one point, or a sample exactly at a point)
+        pairs = [(a, b) for a, b in zip(rows, rows[1:]) if a["branch"] == b["branch"]] + [(a, a) for a in rows]
+        for a, b in pairs:
+            if a["periods"] != r["period"] or not (min(a[param], b[param]) <= p <= max(a[param], b[param])):
                 continue
             if abs(a["impacts_per_period"] - r["impacts_per_period"]) > 0.01 and abs(b["impacts_per_period"] - r["impacts_per_period"]) > 0.01:
                 continue
@@ -192,6 +198,24 @@ def on_branches(orbits: Orbits, sweep: pa.Table, periods=(1, 2), tolerance: floa
         else:
             missed.append(p)
     return matched, len(candidates), missed
+
+
+def cover(scene, param: str, frm: float, to: float, sweep: pa.Table, *, out: str | Path, start=None,
+          transient: int = 100, max_branches: int = 200, **kw) -> Orbits:
+    """Continues from `start`, then again with every period-1 or period-2
+    point of `sweep` not yet on a branch as a start of its own (each from a
+    transient of `transient` periods, the sweep's own discard, so that it
+    settles where the sweep did). Returns the second run (or the first, if
+    it already covers the sweep)."""
+    starts = [] if start is None else [start] if isinstance(start, (int, float)) else list(start)
+    first = continue_orbits(scene, param, frm, to, out=out, start=starts or None, transient=transient, **kw)
+    _, _, missed = on_branches(first, sweep)
+    if not missed:
+        return first
+    second = continue_orbits(scene, param, frm, to, out=out, start=(starts or [frm]) + missed, transient=transient,
+                             max_branches=max_branches, **kw)
+    second.seconds += first.seconds
+    return second
 
 
 def _pairs(items: list[str], flag: str) -> dict[str, str]:
@@ -217,6 +241,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--transient", type=int, default=200, help="forcing periods simulated before the first orbit")
     ap.add_argument("--max-period", type=int, default=8)
     ap.add_argument("--sweep", help="a scripts/sweep output directory of the same parameter, drawn under the branches")
+    ap.add_argument("--cover", action="store_true",
+                    help="with --sweep: start again from every period-1 or period-2 sweep point not on a branch")
     ap.add_argument("--out", required=True)
     a = ap.parse_args(argv)
     try:
@@ -226,11 +252,17 @@ def main(argv: list[str] | None = None) -> int:
             raise OrbitsError(f"--param {a.param}: NAME=FROM:TO")
         value = lambda text, field: Expression(text, field, set()).value({})  # noqa: E731
         sets = {k: value(v, f"--set {k}") for k, v in _pairs(a.set, "--set").items()}
-        orbits = continue_orbits(a.scene, name, value(frm, "--param FROM"), value(to, "--param TO"), out=a.out,
-                                 start=[value(s, "--start") for s in a.start] or None, sets=sets, ties=a.tie,
-                                 points=a.points, max_branches=a.max_branches, transient=a.transient,
-                                 max_period=a.max_period)
         sweep = pq.read_table(Path(a.sweep) / "points.parquet") if a.sweep else None
+        if a.cover and sweep is None:
+            raise OrbitsError("--cover needs --sweep DIR")
+        common = dict(out=a.out, start=[value(s, "--start") for s in a.start] or None, sets=sets, ties=a.tie,
+                      points=a.points, max_period=a.max_period)
+        lo, hi = value(frm, "--param FROM"), value(to, "--param TO")
+        if a.cover:
+            discard = json.loads((sweep.schema.metadata or {}).get(b"beamstop.sweep", b"{}")).get("settings", {}).get("discard_periods")
+            orbits = cover(a.scene, name, lo, hi, sweep, transient=int(discard or a.transient), **common)
+        else:
+            orbits = continue_orbits(a.scene, name, lo, hi, max_branches=a.max_branches, transient=a.transient, **common)
         plot(orbits, Path(a.out) / "orbits.png", sweep, title=f"{Path(a.scene).stem}: {a.param}")
     except (OrbitsError, SweepError) as err:
         print(f"scripts/orbits: {err}", file=sys.stderr)
