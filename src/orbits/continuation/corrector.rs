@@ -275,7 +275,7 @@ impl Walker {
                     }
                     // Damped where the map is not smooth (near grazing the
                     // impacting side's map has a square-root singularity).
-                    if fraction > 1.0 / 8.0 {
+                    if fraction > 1.0 / 64.0 {
                         fraction *= 0.5;
                         x = x0 + step.rows(0, n) * (fraction / self.weight_x);
                         p = p0 + step[n] * fraction / self.weight_p;

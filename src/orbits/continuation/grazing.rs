@@ -10,11 +10,23 @@ use super::corrector::Walker;
 use super::special::stability_change;
 use super::{Point, Special, SpecialKind};
 
+/// A grazing crossed: the grazing orbit, the first orbit beyond it and
+/// the tangent there, and, when the grazing was approached from the
+/// impacting side, where the slow impact's speed squared (linear in the
+/// parameter) extrapolates to zero.
+pub(super) struct Crossing {
+    pub(super) grazing: Point,
+    pub(super) beyond: Point,
+    pub(super) tangent: DVector<f64>,
+    pub(super) estimate: Option<f64>,
+}
+
 impl Walker {
     /// Reports a crossing from `last` through `grazing` to `beyond` (GR,
     /// and ST when the sticks change too); whether `beyond` continues the
     /// branch.
-    pub(super) fn report_crossing(&self, branch: usize, last: &Point, grazing: &Point, beyond: &Point, special: &mut Vec<Special>) -> bool {
+    pub(super) fn report_crossing(&self, branch: usize, last: &Point, crossing: &Crossing, special: &mut Vec<Special>) -> bool {
+        let (grazing, beyond) = (&crossing.grazing, &crossing.beyond);
         let local = continues(grazing, beyond);
         let how = if local {
             format!("continued beyond it from {} = {}", self.name(), beyond.param)
@@ -22,11 +34,12 @@ impl Walker {
             format!("no orbit near it beyond; a far one at {} = {} starts another branch", self.name(), beyond.param)
         };
         let note = format!(
-            "impacts per orbit {} -> {}{}; {}; {how}",
+            "impacts per orbit {} -> {}{}; {}{}; {how}",
             last.profile.impacts,
             beyond.profile.impacts,
             stability_change(last, beyond),
             grazing_measure(grazing),
+            crossing.estimate.map_or(String::new(), |p| format!(" (its speed squared extrapolates to zero at {} = {p})", self.name())),
         );
         special.push(Special { kind: SpecialKind::Grazing, branch, point: grazing.clone(), note });
         if grazing.profile.sticks != beyond.profile.sticks {
@@ -50,7 +63,7 @@ impl Walker {
         last: &Point,
         tangent: &DVector<f64>,
         periods: usize,
-    ) -> Result<(Point, Point, DVector<f64>), String> {
+    ) -> Result<Crossing, String> {
         let previous = previous.ok_or("no trend to extrapolate")?;
         // From the smooth side the closest approach's gap closes, linearly
         // in the parameter; from the impacting side the slowest impact's
@@ -75,14 +88,24 @@ impl Walker {
         let mut grazing = last.clone();
         let mut before = previous.clone();
         let scale = psi(previous).expect("checked");
-        // The secant method, kept on this side: a trial past the grazing
-        // (another impact sequence, or no orbit) bounds the next ones.
-        let mut s_beyond = f64::INFINITY;
+        // Past a grazing approached from the smooth side the new impact's
+        // speed squared grows linearly too: -v^2 / 2 gap'' continues the
+        // gap through zero.
+        let curvature = last.profile.closest.map_or(1.0, |c| c.curvature.max(f64::MIN_POSITIVE));
+        let past = move |p: &Point| p.profile.slowest_impact.filter(|_| p.profile.impacts == impacts + 1).map(|v| -v * v / (2.0 * curvature));
+        // The secant method from this side; a trial past the grazing bounds
+        // the next ones (regula falsi, Illinois, where the gap's
+        // continuation is known there; bisection otherwise).
+        let (mut s_beyond, mut f_beyond) = (f64::INFINITY, None::<f64>);
+        let mut side = 0;
         for _ in 0..40 {
-            if f1.abs() <= 1e-10 * scale || (s1 - s0).abs() <= 1e-15 || (s_beyond - s1).abs() <= 1e-5 * self.ds_max {
+            if f1.abs() <= 1e-10 * scale || (s1 - s0).abs() <= 1e-15 || (s_beyond - s1).abs() <= 1e-9 * self.ds_max {
                 break;
             }
-            let mut s = s1 - f1 * (s1 - s0) / (f1 - f0);
+            let mut s = match f_beyond {
+                Some(fb) => s1 - f1 * (s1 - s_beyond) / (f1 - fb),
+                None => s1 - f1 * (s1 - s0) / (f1 - f0),
+            };
             if !(s > s1 && s < s_beyond) {
                 s = if s_beyond.is_finite() { 0.5 * (s1 + s_beyond) } else { s1 + 2.0 * (s1 - s0).abs() };
             }
@@ -91,16 +114,30 @@ impl Walker {
                     let f = psi(&p).expect("checked");
                     (s0, f0, s1, f1) = (s1, f1, s, f);
                     before = std::mem::replace(&mut grazing, p);
+                    if side == 1 {
+                        f_beyond = f_beyond.map(|fb| 0.5 * fb);
+                    }
+                    side = 1;
                 }
-                _ => s_beyond = s,
+                Ok((p, _, _)) if !by_speed && past(&p).is_some() => {
+                    (s_beyond, f_beyond) = (s, past(&p));
+                    if side == -1 {
+                        f1 *= 0.5;
+                    }
+                    side = -1;
+                }
+                _ => (s_beyond, f_beyond, side) = (s, None, 0),
             }
         }
+        let mut estimate = None;
         if by_speed && f1 > 1e-10 * scale {
             // The branch turns to the state as the impact's speed vanishes,
             // and the hyperplanes above stop meeting it: on to the zero of
             // the speed's square, linear in the parameter, at fixed values
             // of the parameter.
-            grazing = self.refine_by_speed(&before, grazing, periods);
+            let (refined, extrapolated) = self.refine_by_speed(&before, grazing, periods);
+            grazing = refined;
+            estimate = extrapolated;
         }
         // Beyond: the orbit with the changed impact sequence nearest to the
         // grazing one, on either side of it (a grazing can also give birth
@@ -147,18 +184,20 @@ impl Walker {
         let mut direction = DVector::zeros(tangent.len());
         direction[tangent.len() - 1] = side;
         let next_tangent = self.tangent(&beyond, periods, &direction)?;
-        Ok((grazing, beyond, next_tangent))
+        Ok(Crossing { grazing, beyond, tangent: next_tangent, estimate })
     }
 
     /// The grazing approached from the impacting side (`a`, then `b`, on
     /// the branch, the same impacts): the secant method on the slowest
     /// impact's speed squared over the parameter, each orbit by Newton in
     /// the state alone; a value past the grazing bounds the next trials.
-    pub(super) fn refine_by_speed(&mut self, a: &Point, b: Point, periods: usize) -> Point {
+    /// Returns the last orbit found and where the secant line of its last
+    /// two points reaches zero.
+    pub(super) fn refine_by_speed(&mut self, a: &Point, b: Point, periods: usize) -> (Point, Option<f64>) {
         let impacts = b.profile.impacts;
         let square = |p: &Point| p.profile.slowest_impact.filter(|_| p.profile.impacts == impacts).map(|v| v * v);
         let (Some(fa), Some(fb)) = (square(a), square(&b)) else {
-            return b;
+            return (b, None);
         };
         let (mut p0, mut f0, mut p1, mut f1) = (a.param, fa, b.param, fb);
         let mut x0 = a.orbit.state.clone();
@@ -188,7 +227,8 @@ impl Walker {
                 _ => beyond = p,
             }
         }
-        best
+        let estimate = (f1 != f0).then(|| p1 - f1 * (p1 - p0) / (f1 - f0));
+        (best, estimate)
     }
 }
 

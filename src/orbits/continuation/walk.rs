@@ -4,7 +4,7 @@
 use nalgebra::DVector;
 
 use super::corrector::{interpolate, Walker};
-use super::grazing::grazing_ahead;
+use super::grazing::{grazing_ahead, Crossing};
 use super::{on_points, Point, Special, SpecialKind};
 
 impl Walker {
@@ -64,8 +64,9 @@ impl Walker {
                     // locate it, then restart on the far side.
                     let previous = points.len().checked_sub(2).map(|i| points[i].clone());
                     match self.cross_grazing(previous.as_ref(), &last, &tangent, periods) {
-                        Ok((grazing, beyond, next_tangent)) => {
-                            let local = self.report_crossing(branch, &last, &grazing, &beyond, special);
+                        Ok(crossing) => {
+                            let local = self.report_crossing(branch, &last, &crossing, special);
+                            let Crossing { grazing, beyond, tangent: next_tangent, .. } = crossing;
                             points.push(grazing);
                             if !local {
                                 self.restarts.push(beyond);
