@@ -31,6 +31,8 @@ pub enum SimError {
     NonFinite { what: &'static str, value: f64 },
     /// The value cannot be set in this scene.
     NotAnInput(String),
+    /// What this kind of run cannot do (the message says what and why).
+    Unsupported(String),
     /// An integrated phase failed (`message` says why and what to change).
     Integration { time: f64, message: String },
 }
@@ -76,6 +78,7 @@ impl fmt::Display for SimError {
             SimError::Backwards { now, requested } => write!(f, "requested time {requested} lies before the current time {now}"),
             SimError::NonFinite { what, value } => write!(f, "{what} = {value}: must be finite"),
             SimError::NotAnInput(m) => write!(f, "cannot set {m}"),
+            SimError::Unsupported(m) => write!(f, "{m}"),
             SimError::Integration { time, message } => write!(f, "the integration failed at t = {time}: {message}"),
         }
     }

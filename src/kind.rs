@@ -69,7 +69,7 @@ pub trait Scene: Send + Sync + fmt::Debug {
     /// flow need not offer it.
     fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let _ = (start_time, inputs, state);
-        Err(SimError::NotAnInput("a run from a given state: this kind has no exact flow to shoot with".into()))
+        Err(SimError::Unsupported("a run from a given state is for shooting, which needs an exact flow: this kind integrates".into()))
     }
     /// Carries a run of this kind over to this scene's (tunable) values.
     fn retune(&self, run: &mut dyn Run) -> Result<(), SimError> {

@@ -304,7 +304,7 @@ fn a_run_from_a_state_refuses_what_it_cannot_start_from() {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/rotating_beam.json")).unwrap();
     let rotating = Component::from_json(&text).unwrap();
     let refused = start_from(&rotating, 0.0, &DVector::zeros(4)).unwrap_err();
-    assert!(refused.contains("no exact flow"), "{refused}");
+    assert!(refused.contains("needs an exact flow"), "{refused}");
     let mut settings = Continuation::new("nonexistent", 0.0, 1.0);
     settings.points = 10;
     let e = continue_orbits(&scene, &settings).unwrap_err();

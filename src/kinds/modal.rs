@@ -92,11 +92,15 @@ impl Scene for ModalScene {
     fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let mut model = self.model()?;
         let n = model.n_modes();
+        // What a state is started from for: shooting, which needs the flow.
+        if let Some(why) = Simulation::new(model.clone(), start_time)?.flow_unsupported() {
+            return Err(SimError::Unsupported(format!("a run from a given state is for shooting, which needs an exact flow: {why}")));
+        }
         if state.len() != 2 * n {
-            return Err(SimError::NotAnInput(format!("a state of {} coordinates for a structure of {n} modes ([q; q'] has {})", state.len(), 2 * n)));
+            return Err(SimError::Unsupported(format!("a state of {} coordinates for a structure of {n} modes ([q; q'] has {})", state.len(), 2 * n)));
         }
         if let Some(bad) = state.iter().find(|v| !v.is_finite()) {
-            return Err(SimError::NotAnInput(format!("a state with the coordinate {bad}: it must be finite")));
+            return Err(SimError::Unsupported(format!("a state with the coordinate {bad}: it must be finite")));
         }
         model.initial.q.copy_from_slice(&state[..n]);
         model.initial.qd.copy_from_slice(&state[n..]);

@@ -85,7 +85,7 @@ impl Simulation {
     /// the state reached with respect to the state now.
     pub fn advance_with_jacobian(&mut self, t_end: f64) -> Result<DMatrix<f64>, SimError> {
         if let Some(why) = self.flow_unsupported() {
-            return Err(SimError::NotAnInput(format!("the exact flow and its Jacobian: {why}")));
+            return Err(SimError::Unsupported(format!("the exact flow and its Jacobian: {why}")));
         }
         let dim = 2 * self.model.n_modes();
         let mut m = DMatrix::identity(dim, dim);
@@ -179,7 +179,7 @@ impl Simulation {
             Probe::Clear { limiting, .. } => limiting,
         };
         let Some(c) = found else {
-            return Err(SimError::NotAnInput(format!("the exact flow: no event function at zero at t = {t} where the run stopped")));
+            return Err(SimError::Unsupported(format!("the exact flow: no event function at zero at t = {t} where the run stopped")));
         };
         let ch = self.channels[c];
         let h = match self.watched_functional(ch.stop, ch.watch) {
@@ -249,7 +249,7 @@ impl Simulation {
         let explicit = guard.f.as_ref().map_or(0.0, |c| c.dot(&load_rate));
         let rate = dg.dot(&f_minus) + explicit;
         if rate == 0.0 || !rate.is_finite() {
-            return Err(SimError::NotAnInput(format!(
+            return Err(SimError::Unsupported(format!(
                 "the exact flow: the event at t = {} is tangential (guard rate {rate:e}): its saltation matrix does not exist (grazing)",
                 self.state.time
             )));

@@ -192,7 +192,7 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             .parameters()
             .iter()
             .position(|p| p.scene_path.starts_with("loads[") && p.scene_path.ends_with(".omega"))
-            .ok_or("the scene has no harmonic load: give the forcing frequency's parameter")?,
+            .ok_or("the scene has no harmonic load (no loads[k].omega): name the forcing frequency's parameter (--forcing NAME)")?,
     };
     let (lo, hi) = (settings.from.min(settings.to), settings.from.max(settings.to));
     if lo >= hi || !lo.is_finite() || !hi.is_finite() {
