@@ -9,7 +9,8 @@ docs/orbits.md), then writes DIR/branch.parquet and DIR/special.parquet
 (the multipliers and the section samples as list columns) and DIR/orbits.png:
 stable branches solid, unstable dashed, special points marked, over the
 brute-force sweep of the same parameter when --sweep names its directory
-(a `scripts/sweep` run; its points.parquet).
+(a `scripts/sweep` run; its points.parquet), or over one it runs first
+with --sweep-points N.
 
 From Python: `continue_orbits(scene, "d", 0, 1.8, start=1.2, sets={...},
 out=...)` returns the two tables and the run's time; `plot(...)` draws them.
@@ -19,7 +20,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import subprocess
 import sys
 import time
@@ -218,6 +218,29 @@ def cover(scene, param: str, frm: float, to: float, sweep: pa.Table, *, out: str
     return second
 
 
+def sweep_for(scene: str | Path, param: str, frm: str, to: str, points: int, sets: list[str], ties: list[str], out: Path,
+              discard: float = 100, record: int = 50, workers: int | None = None) -> pa.Table:
+    """The brute-force sweep of the same range (`scripts/sweep` on the
+    scene's FMU in target/fmu/): `points` values, the
+    same --set values, each --tie as a --set expression. Returns its table
+    (also in out/points.parquet)."""
+    from .sweep import spec as spec_mod
+    from .sweep.engine import dask_client, run_sweep
+    from .sweep.fmu import read_fmu
+    from .sweep.store import read_points
+
+    name = json.loads(Path(scene).read_text()).get("name")
+    fmu = ROOT / "target" / "fmu" / f"{name}.fmu"
+    if not fmu.exists():
+        raise OrbitsError(f"--sweep-points: {fmu} is missing: package the scene first "
+                          f"(target/release/beamstop package {scene}), or give a sweep with --sweep DIR")
+    set_exprs = list(sets) + [t.replace("^", "**") for t in ties]
+    spec = spec_mod.build(read_fmu(fmu), [f"{param}={frm}:{to}:{points}"], set_exprs, discard, record)
+    with dask_client(None, workers) as client:
+        run_sweep(spec, out, client, progress=sys.stderr.isatty(), restart=True, command="scripts/orbits --sweep-points")
+    return read_points(out / "points.parquet")[0]
+
+
 def _pairs(items: list[str], flag: str) -> dict[str, str]:
     out = {}
     for item in items:
@@ -241,6 +264,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--transient", type=int, default=200, help="forcing periods simulated before the first orbit")
     ap.add_argument("--max-period", type=int, default=8)
     ap.add_argument("--sweep", help="a scripts/sweep output directory of the same parameter, drawn under the branches")
+    ap.add_argument("--sweep-points", type=int, metavar="N",
+                    help="run the brute-force sweep of the same range first (N values; its FMU from target/fmu/), "
+                         "to DIR/sweep, and draw the branches over it")
     ap.add_argument("--cover", action="store_true",
                     help="with --sweep: start again from every period-1 or period-2 sweep point not on a branch")
     ap.add_argument("--out", required=True)
@@ -252,9 +278,14 @@ def main(argv: list[str] | None = None) -> int:
             raise OrbitsError(f"--param {a.param}: NAME=FROM:TO")
         value = lambda text, field: Expression(text, field, set()).value({})  # noqa: E731
         sets = {k: value(v, f"--set {k}") for k, v in _pairs(a.set, "--set").items()}
-        sweep = pq.read_table(Path(a.sweep) / "points.parquet") if a.sweep else None
+        if a.sweep and a.sweep_points:
+            raise OrbitsError("--sweep DIR and --sweep-points N: one or the other")
+        if a.sweep_points:
+            sweep = sweep_for(a.scene, name, frm, to, a.sweep_points, a.set, a.tie, Path(a.out) / "sweep")
+        else:
+            sweep = pq.read_table(Path(a.sweep) / "points.parquet") if a.sweep else None
         if a.cover and sweep is None:
-            raise OrbitsError("--cover needs --sweep DIR")
+            raise OrbitsError("--cover needs --sweep DIR or --sweep-points N")
         common = dict(out=a.out, start=[value(s, "--start") for s in a.start] or None, sets=sets, ties=a.tie,
                       points=a.points, max_period=a.max_period)
         lo, hi = value(frm, "--param FROM"), value(to, "--param TO")

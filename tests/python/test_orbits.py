@@ -80,3 +80,11 @@ def test_bad_input_names_the_field(tmp_path, capsys):
     assert code == 2 and "two different finite ends" in capsys.readouterr().err
     code = orbits.main([str(scene), "--param", "A.amplitude=0.05:0.2", "--start", "0.5", "--out", str(tmp_path / "o")])
     assert code == 2 and "outside the range" in capsys.readouterr().err
+
+
+def test_a_sweep_needs_the_scenes_fmu(tmp_path, capsys):
+    scene = tmp_path / "oscillator.json"
+    scene.write_text(json.dumps(OSCILLATOR))
+    code = orbits.main([str(scene), "--param", "A.amplitude=0.05:0.2", "--sweep-points", "5", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "ImpactOscillator.fmu is missing" in err and "beamstop package" in err
