@@ -8,7 +8,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
-use crate::contact::{Geometry, Law};
+use crate::contact::{Contact, Geometry, Law, PhaseTerm};
 use crate::solve::lti::SystemCache;
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
 use crate::structure::{tip_spring, Beam, Chain, Point, Structure, Support, TipSpringCantilever};
@@ -176,6 +176,19 @@ fn point(scene: &Scene, x: Option<f64>, mass: Option<usize>) -> Point {
 impl Model {
     pub fn n_modes(&self) -> usize {
         self.oscillators.len()
+    }
+
+    /// Why runs of this model have no exact flow (for shooting), if they
+    /// have none: a phase without a closed form, or a basis that changes.
+    pub fn flow_unsupported(&self) -> Option<String> {
+        if self.stops.iter().any(|s| s.law.mode_transfer().is_some()) {
+            return Some("mode transfer changes the modal basis at contact: its flow is not a map of one state vector".into());
+        }
+        let integrated = |s: &StopModel| [Contact::Open, Contact::Pressed, Contact::Held, Contact::Penetrated].iter().any(|c| s.law.term(*c) == PhaseTerm::Nonlinear);
+        if self.stops.iter().any(integrated) {
+            return Some("a nonlinear (Hertz) contact phase is integrated: its flow has no closed form".into());
+        }
+        None
     }
 
     pub fn build(scene: &Scene) -> Result<Model, SceneError> {

@@ -101,18 +101,19 @@ def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out
     return Orbits(branch, special, param, seconds, done.stdout)
 
 
-def _segments(rows: list[dict], param: str):
-    """Consecutive points of one branch with one stability, as polylines per
-    section sample (a period-m orbit has m samples)."""
+def _segments(rows: list[dict]):
+    """Consecutive points of one branch with one stability (its first point
+    the last of the segment before on the same branch, so the line goes on),
+    for polylines per section sample (a period-m orbit has m samples)."""
     run: list[dict] = []
     for r in rows + [None]:
-        if r is not None and run and r["branch"] == run[-1]["branch"] and r["stable"] == run[-1]["stable"] \
-                and len(r["section"]) == len(run[-1]["section"]):
+        same_branch = r is not None and run and r["branch"] == run[-1]["branch"] and len(r["section"]) == len(run[-1]["section"])
+        if same_branch and r["stable"] == run[-1]["stable"]:
             run.append(r)
             continue
         if run:
             yield run
-        run = [r] if r is not None else []
+        run = ([run[-1]] if same_branch else []) + ([r] if r is not None else [])
 
 
 def plot(orbits: Orbits, path: str | Path, sweep: pa.Table | None = None, title: str = "",
@@ -136,8 +137,8 @@ def plot(orbits: Orbits, path: str | Path, sweep: pa.Table | None = None, title:
             ax[1].plot(r[param], r["impacts_per_period"], ".", ms=2, color="0.6", zorder=1)
         ax[0].plot([], [], ".", color="0.6", label="brute-force sweep")
     labelled = set()
-    for seg in _segments(rows, param):
-        stable = seg[0]["stable"]
+    for seg in _segments(rows):
+        stable = seg[-1]["stable"]
         style = dict(color="k" if stable else "tab:red", ls="-" if stable else "--", lw=1.0 if stable else 1.2, zorder=2)
         label = "stable" if stable else "unstable"
         x = [r[param] for r in seg]

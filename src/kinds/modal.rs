@@ -93,7 +93,7 @@ impl Scene for ModalScene {
         let mut model = self.model()?;
         let n = model.n_modes();
         // What a state is started from for: shooting, which needs the flow.
-        if let Some(why) = Simulation::new(model.clone(), start_time)?.flow_unsupported() {
+        if let Some(why) = model.flow_unsupported() {
             return Err(SimError::Unsupported(format!("a run from a given state is for shooting, which needs an exact flow: {why}")));
         }
         if state.len() != 2 * n {

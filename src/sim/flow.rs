@@ -32,7 +32,7 @@ use super::phases::Segment;
 use super::search::{Probe, ProbeBuffers};
 use super::{Reached, SimError, Simulation};
 use crate::contact::restitution::{apply_impact, ImpactRow};
-use crate::contact::{Contact, PhaseTerm, Watch};
+use crate::contact::Watch;
 use crate::solve::free::ModalJet;
 use crate::solve::lti::CoupledSample;
 use crate::solve::{Functional, ModalState};
@@ -51,13 +51,7 @@ fn modal_state(x: &DVector<f64>) -> ModalState {
 impl Simulation {
     /// Why this run has no exact flow, if it has none.
     pub fn flow_unsupported(&self) -> Option<String> {
-        if self.model.stops.iter().any(|s| s.law.mode_transfer().is_some()) {
-            return Some("mode transfer changes the modal basis at contact: its flow is not a map of one state vector".into());
-        }
-        if self.model.stops.iter().any(|s| [Contact::Open, Contact::Pressed, Contact::Held, Contact::Penetrated].iter().any(|c| s.law.term(*c) == PhaseTerm::Nonlinear)) {
-            return Some("a nonlinear (Hertz) contact phase is integrated: its flow has no closed form".into());
-        }
-        None
+        self.model.flow_unsupported()
     }
 
     /// Each stop's clearance now.
