@@ -70,8 +70,7 @@ impl Walker {
     }
 
     /// The orbit found from a simulated transient at `start` (or from the
-    /// given start state, for the first start), scaling the state by its
-    /// size when `first`.
+    /// given start state, for the first start).
     pub(super) fn first_orbit(&mut self, start: f64, settings: &Continuation, first: bool) -> Result<Point, String> {
         let at_start = self.scene_at(start)?;
         let forcing_period = self.forcing_period(&at_start);
@@ -79,9 +78,6 @@ impl Walker {
             (Some(x), true) => (x.clone(), 1),
             _ => self.settle(&at_start, forcing_period, settings.transient, settings.max_period)?,
         };
-        if first {
-            self.weight_x = 1.0 / guess.norm().max(1e-12);
-        }
         let shooting = Shooting { tolerance: settings.tolerance, max_iterations: 40 };
         let orbit = shoot(&at_start, self.t0, periods as f64 * forcing_period, &guess, shooting)
             .map_err(|e| format!("the first orbit ({periods} forcing periods): {e}"))?;

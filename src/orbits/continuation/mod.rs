@@ -6,8 +6,8 @@
 //! Its Jacobian is `[M - I, G_p]`: `M` the exact monodromy matrix, `G_p`
 //! by central differences in `p` (a parameter such as the gap rebuilds the
 //! model; a forcing frequency also changes the period). Steps are taken in
-//! scaled coordinates (the state by its size at the start, the parameter
-//! by the range's width): a tangent predictor, then Newton on `G = 0`
+//! scaled coordinates (the state by the size of its branch's first orbit,
+//! the parameter by the range's width): a tangent predictor, then Newton on `G = 0`
 //! within the hyperplane normal to the tangent, so a branch goes round its
 //! folds. The map is continuous where the impact sequence changes
 //! (grazing, a chatter ending in a stick), so a branch continues across it.
@@ -238,6 +238,8 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             }
             let index = diagram.branches.len();
             let periods = first.periods();
+            // Each branch scales the state by its first orbit's size.
+            walker.weight_x = 1.0 / first.orbit.state.norm().max(1e-300);
             let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
             increasing[first.orbit.state.len()] = 1.0;
             let tangent = walker.tangent(&first, periods, &increasing)?;
@@ -260,6 +262,7 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             continue;
         }
         let index = diagram.branches.len();
+        walker.weight_x = 1.0 / at.orbit.state.norm().max(1e-300);
         match walker.switch(&at, periods) {
             Ok((point, tangent)) => {
                 let others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
