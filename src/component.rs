@@ -152,7 +152,19 @@ impl Component {
     /// naming the scene fields at fault, and their variables).
     pub fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, String> {
         let scene = self.scene()?;
+        self.check_start_time(start_time)?;
         scene.start(start_time, inputs).map_err(|e| self.with_variable_names(e.to_string()))
+    }
+
+    /// Whether the clock resolves the scene's shortest period at
+    /// `start_time` ([`crate::kind::check_time_resolution`]); values that
+    /// do not form a scene are left to the run's own checks.
+    pub fn check_start_time(&self, start_time: f64) -> Result<(), String> {
+        let Ok(scene) = self.scene() else { return Ok(()) };
+        match scene.shortest_period() {
+            Ok(period) => crate::kind::check_time_resolution("startTime", start_time, period),
+            Err(_) => Ok(()),
+        }
     }
 
     /// A run from the state `[q; q']` at `start_time` (see

@@ -60,6 +60,10 @@ pub trait Scene: Send + Sync + fmt::Debug {
     fn variables(&self) -> Variables;
     /// How runs of this kind compute, in a paragraph (for documentation).
     fn method(&self) -> &'static str;
+    /// The shortest period a run of the scene at its current values must
+    /// resolve (as [`Run::shortest_period`]): the clock's resolution must
+    /// stay below [`MAX_TIME_RESOLUTION`] of it.
+    fn shortest_period(&self) -> Result<f64, SimError>;
     /// A run from the scene's initial state at `start_time`, with the
     /// inputs (in [`Variables::inputs`] order) applied.
     fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError>;
@@ -80,6 +84,24 @@ pub trait Scene: Send + Sync + fmt::Debug {
     /// this scene; `inputs` are the inputs it was saved with. The error
     /// names the field that is wrong.
     fn decode(&self, inputs: &[f64], r: &mut Reader) -> Result<Box<dyn Run>, String>;
+}
+
+/// The coarsest time resolution (an ulp of the time), relative to the
+/// shortest period a run must resolve, at which a run is started or
+/// advanced.
+pub const MAX_TIME_RESOLUTION: f64 = 1e-6;
+
+/// Whether the clock resolves `period` at time `t`; if not, why.
+pub fn check_time_resolution(what: &str, t: f64, period: f64) -> Result<(), String> {
+    let resolution = t.abs() * f64::EPSILON;
+    if resolution > MAX_TIME_RESOLUTION * period {
+        let t = if t.abs() < 1e16 { format!("{t}") } else { format!("{t:e}") };
+        return Err(format!(
+            "{what} = {t}: the time's resolution there ({resolution:e}) exceeds {MAX_TIME_RESOLUTION} of the \
+             period of the first mode or the load ({period:e}), too coarse to locate impacts; start the experiment nearer t = 0"
+        ));
+    }
+    Ok(())
 }
 
 /// Where an advance stopped.
@@ -252,4 +274,6 @@ pub struct Work {
     /// Units of work, in what `unit` says.
     pub units: u64,
     pub unit: &'static str,
+    /// The most units one advance may take (its work cap).
+    pub cap: u64,
 }

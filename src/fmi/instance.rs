@@ -10,10 +10,11 @@
 use std::path::Path;
 
 use crate::component::Component;
-use crate::kind::{EventRecord, Reached, Run};
+use crate::kind::{check_time_resolution, EventRecord, Reached, Run};
 use crate::variables::Value;
 
 use super::logging::Logger;
+use super::states::Ledger;
 use super::state::{Call, ModelState, Status};
 use super::variables::{Binding, VarType, Variable, VariableTable};
 
@@ -32,10 +33,24 @@ pub struct Snapshot {
     /// The run stands just before an event's discrete change, which the
     /// importer makes in event mode (FMI 3.0's UpdateDiscreteStates).
     pub pending: bool,
+    /// The choices of the instance that saved it.
+    pub made_with: Modes,
+}
+
+/// The importer's choices an instance was made with (FMI 3.0's
+/// fmi3InstantiateCoSimulation; an FMI 2.0 instance has neither).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Modes {
+    pub event_mode_used: bool,
+    pub early_return_allowed: bool,
 }
 
 pub struct Instance {
     pub logger: Logger,
+    /// The FMU states handed out (freed with the instance).
+    pub states: Ledger,
+    /// The importer's choices (set by the FMI 3.0 shell at instantiation).
+    pub modes: Modes,
     guid: String,
     /// The scene as packaged: the start values.
     packaged: Component,
@@ -69,11 +84,6 @@ pub enum StepEnd {
 /// A failed call: the status to return (the message is already logged).
 pub type CallResult<T = ()> = Result<T, Status>;
 
-/// The coarsest time resolution (an ulp of the time), relative to the
-/// period of the first mode (or of a faster load), at which steps are
-/// still taken.
-pub const MAX_TIME_RESOLUTION: f64 = 1e-6;
-
 impl Instance {
     /// Instantiate after the pointer checks (`name`: the function): reads
     /// the scene from the resources and checks the GUID (FMI 3.0: the
@@ -101,6 +111,8 @@ impl Instance {
         let inputs = vec![0.0; table.interface.inputs.len()];
         Ok(Instance {
             logger,
+            states: Ledger::default(),
+            modes: Modes::default(),
             guid: expected,
             packaged: scene.clone(),
             scene,
@@ -179,6 +191,12 @@ impl Instance {
             if !(stop >= start) || !stop.is_finite() {
                 return Err(self.fail(&format!("{name}: stopTime = {stop}: must be finite and >= startTime = {start}")));
             }
+        }
+        // A start the clock cannot resolve is refused now, before any
+        // output is computed (the run's start checks it again with the
+        // values initialisation ends with).
+        if let Err(m) = self.scene.check_start_time(start) {
+            return Err(self.fail(&format!("{name}: {m}")));
         }
         self.start_time = start;
         self.stop_time = stop;
@@ -446,13 +464,8 @@ impl Instance {
                 now.abs().max(f64::MIN_POSITIVE) * f64::EPSILON
             )));
         }
-        let period = sim.shortest_period();
-        let resolution = target.abs() * f64::EPSILON;
-        if resolution > MAX_TIME_RESOLUTION * period {
-            return Err(self.fail(&format!(
-                "{name}: t + h = {target}: the time's resolution there ({resolution:e}) exceeds {MAX_TIME_RESOLUTION} of the \
-                 period of the first mode or the load ({period:e}), too coarse to locate impacts; start the experiment nearer t = 0"
-            )));
+        if let Err(m) = check_time_resolution("t + h", target, sim.shortest_period()) {
+            return Err(self.fail(&format!("{name}: {m}")));
         }
         if let Some(stop) = self.stop_time {
             if target > stop + 1e-9 * stop.abs().max(1.0) {
@@ -470,6 +483,7 @@ impl Instance {
         let Some(sim) = self.sim.as_mut() else {
             return Err(self.fail(&format!("{name}: no simulation (initialisation did not complete)")));
         };
+        let work_before = sim.work().units;
         // An event left pending (the importer stepped on without event
         // mode) is made first, as a step without event mode would have.
         let mut result = if std::mem::take(&mut self.pending) { sim.apply_events() } else { Ok(()) };
@@ -486,6 +500,12 @@ impl Instance {
         }
         let events = sim.drain_events();
         let reached = sim.time();
+        if self.logger.wants("logAll") {
+            // What the step cost, in the units its work cap counts (a
+            // fuzzer checks the cap by this, not by the clock).
+            let work = sim.work();
+            self.trace(&format!("{name}: work {} of {} {} (the step's cap)", work.units - work_before, work.cap, work.unit));
+        }
         self.log_events(&events);
         match result {
             Ok(()) => {
@@ -571,10 +591,29 @@ impl Instance {
             last_successful_time: self.last_successful_time,
             terminated: self.terminated,
             pending: self.pending,
+            made_with: self.modes,
         }
     }
 
-    pub fn restore(&mut self, s: &Snapshot) {
+    /// Whether this instance can continue from a state: one saved in event
+    /// mode or with an event's change pending needs event mode.
+    pub fn admits(&self, s: &Snapshot) -> Result<(), String> {
+        if self.modes.event_mode_used || !(s.machine == ModelState::EventMode || s.pending) {
+            return Ok(());
+        }
+        let saved = if s.machine == ModelState::EventMode { "in event mode" } else { "with an event's change pending" };
+        let this = if s.made_with.event_mode_used { "eventModeUsed = true" } else { "no event mode" };
+        Err(format!(
+            "the state was saved {saved} by an instance made with {this}; this instance has no event mode (FMI 2.0, or FMI 3.0 \
+             instantiated with eventModeUsed = false) and cannot make that change: save states in step mode, or instantiate with eventModeUsed = true"
+        ))
+    }
+
+    /// SetFMUState: refused (the instance unchanged) unless [`Self::admits`].
+    pub fn restore<F: Call>(&mut self, f: F, s: &Snapshot) -> CallResult {
+        if let Err(m) = self.admits(s) {
+            return Err(self.fail(&format!("{}: {m}", f.name())));
+        }
         let mut scene = self.packaged.clone();
         scene.set_many(s.parameters.iter().copied().enumerate());
         self.scene = scene;
@@ -588,6 +627,7 @@ impl Instance {
         self.terminated = s.terminated;
         self.pending = s.pending;
         self.sync_event_recording();
+        Ok(())
     }
 
     /// The packaged scene with the given parameter values (for restoring

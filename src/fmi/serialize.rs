@@ -11,15 +11,16 @@
 
 use crate::codec::{Reader, Writer};
 
-use super::instance::{Instance, Snapshot};
+use super::instance::{Instance, Modes, Snapshot};
 use super::state::ModelState;
 
 const MAGIC: &[u8; 8] = b"BEAMSTOP";
 /// Version 2: the simulation writes its own state (with its own version)
 /// and every restored state is validated. Version 3: the instance state
 /// as a u32 (FMI 3.0's event mode), and whether an event's discrete
-/// change is pending.
-pub const FORMAT_VERSION: u32 = 3;
+/// change is pending. Version 4: the choices of the instance that saved
+/// it (event mode, early return).
+pub const FORMAT_VERSION: u32 = 4;
 
 pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
     let mut w = Writer(Vec::new());
@@ -32,6 +33,7 @@ pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
     w.f64(s.last_successful_time);
     w.u8(s.terminated as u8);
     w.u8(s.pending as u8);
+    w.u8(s.made_with.event_mode_used as u8 | (s.made_with.early_return_allowed as u8) << 1);
     w.f64s(&s.parameters);
     w.f64s(&s.inputs);
     match &s.sim {
@@ -46,17 +48,19 @@ pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
 
 /// Reads a state written by [`serialize`] for this instance and checks it
 /// as strictly as a state reached by set calls: a machine state that may
-/// be restored (event mode and a pending event only where `event_mode`,
-/// the FMI 3.0 shell), finite times, parameters and inputs within their
-/// ranges, and a simulation state the model can be in.
-pub fn deserialize(instance: &Instance, bytes: &[u8], event_mode: bool) -> Result<Snapshot, String> {
+/// be restored (event mode and a pending event only where the instance
+/// has event mode: [`Instance::admits`]), finite times, parameters and
+/// inputs within their ranges, and a simulation state the model can be in.
+pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String> {
     let mut r = Reader::new(bytes);
     if r.take(MAGIC.len())? != MAGIC {
         return Err("not a beamstop FMU state (bad magic)".into());
     }
     let version = r.u32()?;
     if version != FORMAT_VERSION {
-        return Err(format!("serialized state format version {version}; this FMU reads version {FORMAT_VERSION}"));
+        return Err(format!(
+            "serialized state format version {version}; this FMU reads version {FORMAT_VERSION} (states saved by an older build are not read: save them again with this one)"
+        ));
     }
     let guid = r.str()?;
     if guid != instance.guid() {
@@ -76,12 +80,17 @@ pub fn deserialize(instance: &Instance, bytes: &[u8], event_mode: bool) -> Resul
         1 => true,
         b => return Err(format!("serialized state: pending-event flag {b}: must be 0 or 1")),
     };
+    let modes = r.u8()?;
+    if modes > 3 {
+        return Err(format!("serialized state: instance choices {modes:#x}: must be within 0..=3 (event mode 1, early return 2)"));
+    }
+    let made_with = Modes { event_mode_used: modes & 1 != 0, early_return_allowed: modes & 2 != 0 };
     let table = instance.table();
     let parameters = r.f64s(table.interface.parameters.len(), "parameters")?;
     let inputs = r.f64s(table.interface.inputs.len(), "inputs")?;
     let has_sim = r.u8()? != 0;
-    if !event_mode && (machine == ModelState::EventMode || pending) {
-        return Err("serialized state: saved by the FMI 3.0 interface in event mode or with an event pending; the FMI 2.0 interface cannot restore it".into());
+    if (machine == ModelState::EventMode || pending) && !made_with.event_mode_used {
+        return Err("serialized state: in event mode or with an event pending, saved by an instance without event mode".into());
     }
     if pending && !matches!(machine, ModelState::StepMode | ModelState::EventMode) {
         return Err(format!("serialized state: an event pending in instance state {machine:?}"));
@@ -131,5 +140,7 @@ pub fn deserialize(instance: &Instance, bytes: &[u8], event_mode: bool) -> Resul
     if r.remaining() != 0 {
         return Err(format!("serialized state has {} trailing bytes", r.remaining()));
     }
-    Ok(Snapshot { machine, parameters, inputs, start_time, stop_time, sim, last_successful_time, terminated, pending })
+    let snapshot = Snapshot { machine, parameters, inputs, start_time, stop_time, sim, last_successful_time, terminated, pending, made_with };
+    instance.admits(&snapshot).map_err(|m| format!("serialized state: {m}"))?;
+    Ok(snapshot)
 }

@@ -9,7 +9,8 @@
 use libc::{c_char, size_t};
 
 use crate::fmi::boundary::{guarded, null_argument as null, run, slice, slice_mut, string, Shell};
-use crate::fmi::instance::{CallResult, Instance, Snapshot};
+use crate::fmi::instance::{CallResult, Instance};
+use crate::fmi::states;
 use crate::fmi::logging::Logger;
 use crate::fmi::resource::resource_dir;
 use crate::fmi::serialize::{deserialize, serialize};
@@ -304,12 +305,7 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FM
             return Err(null_argument(i, f, "FMUstate"));
         }
         let snapshot = i.snapshot();
-        if (*FMUstate).is_null() {
-            *FMUstate = Box::into_raw(Box::new(snapshot)) as fmi2FMUstate;
-        } else {
-            // Reuse the importer's earlier state object.
-            *((*FMUstate) as *mut Snapshot) = snapshot;
-        }
+        i.states.hand_out(FMUstate, snapshot);
         Ok(())
     })
 }
@@ -321,19 +317,16 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstat
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
-        i.restore(&*(FMUstate as *const Snapshot));
-        Ok(())
+        i.restore(f, states::snapshot(FMUstate))
     })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
     call(c, Function::FreeFMUstate, |_| {
-        if FMUstate.is_null() || (*FMUstate).is_null() {
-            return Ok(());
+        if !FMUstate.is_null() {
+            states::free(FMUstate);
         }
-        drop(Box::from_raw((*FMUstate) as *mut Snapshot));
-        *FMUstate = std::ptr::null_mut();
         Ok(())
     })
 }
@@ -345,7 +338,7 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, FMUstate: 
         if FMUstate.is_null() || size.is_null() {
             return Err(null_argument(i, f, "FMUstate or size"));
         }
-        *size = serialize(i.guid(), &*(FMUstate as *const Snapshot)).len();
+        *size = serialize(i.guid(), states::snapshot(FMUstate)).len();
         Ok(())
     })
 }
@@ -362,7 +355,7 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
-        let bytes = serialize(i.guid(), &*(FMUstate as *const Snapshot));
+        let bytes = serialize(i.guid(), states::snapshot(FMUstate));
         if size < bytes.len() {
             return Err(i.fail(&format!("fmi2SerializeFMUstate: size = {size}: the state needs {} bytes (fmi2SerializedFMUstateSize)", bytes.len())));
         }
@@ -389,12 +382,8 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
-        let snapshot = deserialize(i, bytes, false).map_err(|m| i.fail(&format!("fmi2DeSerializeFMUstate: {m}")))?;
-        if (*FMUstate).is_null() {
-            *FMUstate = Box::into_raw(Box::new(snapshot)) as fmi2FMUstate;
-        } else {
-            *((*FMUstate) as *mut Snapshot) = snapshot;
-        }
+        let snapshot = deserialize(i, bytes).map_err(|m| i.fail(&format!("fmi2DeSerializeFMUstate: {m}")))?;
+        i.states.hand_out(FMUstate, snapshot);
         Ok(())
     })
 }

@@ -14,7 +14,8 @@ use std::cell::{Cell, UnsafeCell};
 use libc::{c_char, size_t};
 
 use crate::fmi::boundary::{guarded, null_argument, run, slice, slice_mut, string};
-use crate::fmi::instance::{CallResult, Instance, Snapshot};
+use crate::fmi::instance::{CallResult, Instance, Modes};
+use crate::fmi::states;
 use crate::fmi::logging::Logger;
 use crate::fmi::resource::resource_dir;
 use crate::fmi::serialize::{deserialize, serialize};
@@ -178,13 +179,9 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
         Instance::new(f, logger, &token, &dir)
     });
     match result {
-        Ok(Ok(core)) => {
-            let options = Options {
-                event_mode_used: eventModeUsed != FMI3_FALSE,
-                early_return_allowed: earlyReturnAllowed != FMI3_FALSE,
-                intermediate_update: intermediateUpdate,
-                environment: instanceEnvironment,
-            };
+        Ok(Ok(mut core)) => {
+            core.modes = Modes { event_mode_used: eventModeUsed != FMI3_FALSE, early_return_allowed: earlyReturnAllowed != FMI3_FALSE };
+            let options = Options { intermediate_update: intermediateUpdate, environment: instanceEnvironment };
             let slot = Slot { busy: Cell::new(false), instance: UnsafeCell::new(Instance3 { core, options }) };
             Box::into_raw(Box::new(slot)) as fmi3Instance
         }
@@ -666,12 +663,7 @@ pub unsafe extern "C" fn fmi3GetFMUState(instance: fmi3Instance, FMUState: *mut 
             return Err(null_argument(&i.core, f, "FMUState"));
         }
         let snapshot = i.core.snapshot();
-        if (*FMUState).is_null() {
-            *FMUState = Box::into_raw(Box::new(snapshot)) as fmi3FMUState;
-        } else {
-            // Reuse the importer's earlier state object.
-            *((*FMUState) as *mut Snapshot) = snapshot;
-        }
+        i.core.states.hand_out(FMUState, snapshot);
         Ok(())
     })
 }
@@ -683,19 +675,16 @@ pub unsafe extern "C" fn fmi3SetFMUState(instance: fmi3Instance, FMUState: fmi3F
         if FMUState.is_null() {
             return Err(null_argument(&i.core, f, "FMUState"));
         }
-        i.core.restore(&*(FMUState as *const Snapshot));
-        Ok(())
+        i.core.restore(f, states::snapshot(FMUState))
     })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3FreeFMUState(instance: fmi3Instance, FMUState: *mut fmi3FMUState) -> fmi3Status {
     call(instance, Function::FreeFMUState, |_| {
-        if FMUState.is_null() || (*FMUState).is_null() {
-            return Ok(());
+        if !FMUState.is_null() {
+            states::free(FMUState);
         }
-        drop(Box::from_raw((*FMUState) as *mut Snapshot));
-        *FMUState = std::ptr::null_mut();
         Ok(())
     })
 }
@@ -707,7 +696,7 @@ pub unsafe extern "C" fn fmi3SerializedFMUStateSize(instance: fmi3Instance, FMUS
         if FMUState.is_null() || size.is_null() {
             return Err(null_argument(&i.core, f, "FMUState or size"));
         }
-        *size = serialize(i.core.guid(), &*(FMUState as *const Snapshot)).len();
+        *size = serialize(i.core.guid(), states::snapshot(FMUState)).len();
         Ok(())
     })
 }
@@ -719,7 +708,7 @@ pub unsafe extern "C" fn fmi3SerializeFMUState(instance: fmi3Instance, FMUState:
         if FMUState.is_null() {
             return Err(null_argument(&i.core, f, "FMUState"));
         }
-        let bytes = serialize(i.core.guid(), &*(FMUState as *const Snapshot));
+        let bytes = serialize(i.core.guid(), states::snapshot(FMUState));
         if size < bytes.len() {
             return Err(fail(i, format!("{}: size = {size}: the state needs {} bytes (fmi3SerializedFMUStateSize)", f.name(), bytes.len())));
         }
@@ -741,12 +730,8 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(instance: fmi3Instance, seriali
         if FMUState.is_null() {
             return Err(null_argument(&i.core, f, "FMUState"));
         }
-        let snapshot = deserialize(&i.core, bytes, true).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
-        if (*FMUState).is_null() {
-            *FMUState = Box::into_raw(Box::new(snapshot)) as fmi3FMUState;
-        } else {
-            *((*FMUState) as *mut Snapshot) = snapshot;
-        }
+        let snapshot = deserialize(&i.core, bytes).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
+        i.core.states.hand_out(FMUState, snapshot);
         Ok(())
     })
 }

@@ -19,16 +19,15 @@
 //! - neither: the step goes over every event as the FMI 2.0 FMU does.
 
 use crate::fmi::boundary::Shell;
-use crate::fmi::instance::{CallResult, Instance, StepEnd};
+use crate::fmi::instance::{CallResult, Instance, Modes, StepEnd};
 use crate::fmi::ModelState;
 
 use super::state_machine::Function;
 use super::types::{fmi3Boolean, fmi3InstanceEnvironment, fmi3IntermediateUpdateCallback, FMI3_FALSE, FMI3_TRUE};
 
-/// The importer's choices at fmi3InstantiateCoSimulation.
+/// The importer's callback at fmi3InstantiateCoSimulation (its choices of
+/// event mode and early return are the core's [`crate::fmi::instance::Modes`]).
 pub struct Options {
-    pub event_mode_used: bool,
-    pub early_return_allowed: bool,
     pub intermediate_update: fmi3IntermediateUpdateCallback,
     pub environment: fmi3InstanceEnvironment,
 }
@@ -57,14 +56,14 @@ pub struct Stepped {
 impl Instance3 {
     pub fn exit_initialization_mode(&mut self) -> CallResult {
         self.core.exit_initialization_mode(Function::ExitInitializationMode)?;
-        if self.options.event_mode_used {
+        if self.core.modes.event_mode_used {
             self.core.set_machine(ModelState::EventMode);
         }
         Ok(())
     }
 
     pub fn enter_event_mode(&mut self) -> CallResult {
-        if !self.options.event_mode_used {
+        if !self.core.modes.event_mode_used {
             return Err(self.core.fail("fmi3EnterEventMode: this instance was instantiated with eventModeUsed = false"));
         }
         self.core.set_machine(ModelState::EventMode);
@@ -88,7 +87,7 @@ impl Instance3 {
         let f = Function::DoStep;
         let target = self.core.check_step(f, t, h)?;
         let options = &self.options;
-        let Options { event_mode_used, early_return_allowed, .. } = *options;
+        let Modes { event_mode_used, early_return_allowed } = self.core.modes;
         let callback = options.intermediate_update.is_some();
         let mut stop_before = |te: f64| {
             let inside = te < target;

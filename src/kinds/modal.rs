@@ -83,6 +83,10 @@ impl Scene for ModalScene {
          and the <code>logEvents</code> log category."
     }
 
+    fn shortest_period(&self) -> Result<f64, SimError> {
+        Ok(self.model()?.shortest_period())
+    }
+
     fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let mut sim = Simulation::new(self.model()?, start_time)?;
         sim.set_inputs(inputs)?;
@@ -195,7 +199,7 @@ impl Run for ModalRun {
 
     fn work(&self) -> Work {
         let stats = self.sim.stats();
-        Work { events: stats.events, units: stats.probes, unit: "event-function evaluations" }
+        Work { events: stats.events, units: stats.work, unit: "event-search points", cap: self.sim.model().max_probes_per_step }
     }
 
     fn flow(&mut self) -> Option<&mut dyn Flow> {

@@ -79,6 +79,10 @@ impl Scene for RotatingScene {
          <code>logEvents</code> log category."
     }
 
+    fn shortest_period(&self) -> Result<f64, SimError> {
+        Ok(self.model().map_err(SimError::Scene)?.shortest_period())
+    }
+
     fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let mut sim = RotatingSimulation::new(self.model().map_err(SimError::Scene)?, start_time)?;
         if let Some(&torque) = inputs.first() {
@@ -167,6 +171,7 @@ impl Run for RotatingRun {
 
     fn work(&self) -> Work {
         let stats = self.sim.stats();
-        Work { events: stats.events, units: stats.accepted, unit: "integration steps" }
+        let model = self.sim.model();
+        Work { events: stats.events, units: stats.accepted, unit: "integration steps", cap: model.spec.solver.step_budget(model.n_modes()) }
     }
 }

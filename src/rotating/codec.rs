@@ -118,9 +118,9 @@ impl RotatingSimulation {
             return Err(bad(format!("rotating state: {contact:?} with no contact onset counted")));
         }
         // The contact state agrees with the penetration at the anchor and now.
-        let level = 1e-9 * model.tip_radius();
         for (what, t, y) in [("anchor", anchor_time, &anchor), ("current state", time, &current)] {
             let (z, zd) = phase.coords(t, y);
+            let level = penetration_level(&model, &z);
             let point = phase.contact_point(&z, &zd);
             let gamma = point.penetration;
             let agrees = match contact {
@@ -198,9 +198,28 @@ impl RotatingSimulation {
                 "rotating state: the current state is {off:e} away from the motion its anchor gives at t = {time} (scale {scale:e})"
             )));
         }
-        if !(impulse_mark <= sim.impulse_total() * (1.0 + 1e-9) + f64::MIN_POSITIVE && impulse_mark >= 0.0) {
+        if !(impulse_mark <= sim.impulse_total().max(0.0) * (1.0 + 1e-9) + f64::MIN_POSITIVE && impulse_mark >= 0.0) {
             return Err(bad(format!("rotating state: impulse mark {impulse_mark} outside [0, impulse so far {}]", sim.impulse_total())));
         }
         Ok(sim)
     }
+}
+
+/// How far past the surface a state the run wrote may lie on the wrong
+/// side of its contact state: a switch is located on the integrator's
+/// dense output and the state there is a full-order step of its own, two
+/// approximations that agree to the error the tolerance controls. That
+/// error, for the tip's penetration, is the tolerance times the size of
+/// what makes it up: the hub angle's share `(R + L) |theta|` (integrated
+/// with a relative tolerance, unless the hub is prescribed), each mode's
+/// `|w_j| |b_j|`, and the floor of the modal amplitudes the integrator
+/// scales its absolute tolerance by (see `RotatingSimulation::phase_options`);
+/// 16 times that, and never below 1e-9 of the tip radius.
+fn penetration_level(model: &RotatingModel, z: &nalgebra::DVector<f64>) -> f64 {
+    let n = model.n_modes();
+    let radius = model.tip_radius();
+    let floor = 1e-4 * model.beam.params.length;
+    let hub = if model.prescribed().is_some() { 0.0 } else { radius * z[0].abs() + floor };
+    let modes: f64 = (0..n).map(|j| model.beam.w[j].abs() * (z[1 + j].abs() + floor)).sum();
+    (16.0 * model.spec.solver.tolerance * (hub + modes)).max(1e-9 * radius)
 }

@@ -136,11 +136,7 @@ pub struct RotatingSimulation {
     pub(super) steps_since_anchor: u64,
 }
 
-/// After this many accepted steps without a switch the run restarts from
-/// the end of its last step (a new anchor): a decode never replays more.
-/// The count follows the step sequence alone, so results stay independent
-/// of the communication step.
-pub const REANCHOR_AFTER: u64 = 2000;
+pub use crate::solve::REANCHOR_AFTER;
 
 /// The state at `t1` inside a step from `(t0, y0)`, to full order.
 pub(super) fn full_order_state(phase: &Phase, options: &RadauOptions, t0: f64, y0: &DVector<f64>, t1: f64) -> Option<DVector<f64>> {
@@ -407,7 +403,10 @@ impl RotatingSimulation {
             return Err(SimError::Backwards { now: self.time, requested: t_end });
         }
         if t_end > self.time {
-            self.impulse_mark = self.impulse_total();
+            // The impulse state read from a step's dense output may dip a
+            // rounding below zero at a contact's start: the mark (what the
+            // last advance's impulse is counted from) never does.
+            self.impulse_mark = self.impulse_total().max(0.0);
         }
         let mut count = 0u64;
         let mut steps = 0u64;

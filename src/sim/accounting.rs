@@ -250,6 +250,22 @@ impl Simulation {
         self.reaction_at(stop, self.state.time, &self.state.current)
     }
 
+    /// The size of the terms of [`Self::reaction_at`] (its rounding level
+    /// is relative to it); 0 where the stop holds no reaction.
+    pub(super) fn reaction_size_at(&self, stop: usize, t: f64, state: &ModalState) -> f64 {
+        match &self.segment {
+            Segment::Coupled { phase, .. } => match &phase.reactions[stop] {
+                Some(r) => {
+                    let mut f = DVector::zeros(self.model.n_modes());
+                    phase.forcing.derivative(t, 0, &mut f);
+                    r.term_size(state, &f)
+                }
+                None => 0.0,
+            },
+            Segment::Free { .. } | Segment::Integrated(_) => 0.0,
+        }
+    }
+
     pub(super) fn reaction_at(&self, stop: usize, t: f64, state: &ModalState) -> f64 {
         match &self.segment {
             Segment::Coupled { phase, .. } => match &phase.reactions[stop] {

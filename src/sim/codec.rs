@@ -169,7 +169,7 @@ impl Simulation {
         check_geometry(&sim)?;
         for i in 0..sim.model.stops.len() {
             let (total, mark) = (sim.impulse_total(i), sim.state.stops[i].impulse_mark);
-            if mark > total * (1.0 + 1e-9) + f64::MIN_POSITIVE {
+            if mark > total.max(0.0) * (1.0 + 1e-9) + f64::MIN_POSITIVE {
                 return Err(format!("simulation state: stops[{i}].impulse mark {mark} exceeds the impulse delivered so far, {total}"));
             }
         }
@@ -309,6 +309,10 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
 fn check_geometry(sim: &Simulation) -> Result<(), String> {
     let st = &sim.state;
     let model = &sim.model;
+    // Stopped just before an integrated phase's switch (which the restore
+    // found again at this very time): the stops it switches are already
+    // past their functions' zero.
+    let switching = sim.stops_at_pending_switch();
     for (i, stop) in model.stops.iter().enumerate() {
         let name = &stop.name;
         let counters = &st.stops[i];
@@ -331,11 +335,13 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
                     -at.p, -at.pd
                 ));
             }
+            // A stop saved at its release (the run stopped before the
+            // change) has its reaction at zero to the rounding of its terms.
             let pushes = -sim.geometries[i].side * sim.reaction(i);
-            if pushes < -1e-9 * (1.0 + pushes.abs()) {
+            if pushes < -ON_BOUNDARY * (1.0 + pushes.abs() + sim.reaction_size_at(i, st.time, &st.current)) {
                 return Err(format!("simulation state: stuck to stop '{name}' with a pulling reaction {}", sim.reaction(i)));
             }
-        } else {
+        } else if !switching.contains(&i) {
             let outside = match contact {
                 Contact::Open => at.p <= at.level_p,
                 // A law that pushes while its force does (a dashpot keeps
@@ -390,7 +396,7 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
 
 /// A relative level far above rounding and far below any real distance
 /// from a boundary: a departing flag's function lies within it.
-const ON_BOUNDARY: f64 = 1e-9;
+pub(super) const ON_BOUNDARY: f64 = 1e-9;
 
 /// Departing flags are claims that a function was on its boundary: at the
 /// last search point (`departing`) or at the anchor (`anchor_departing`,
@@ -419,15 +425,24 @@ fn check_departing(sim: &Simulation) -> Result<(), String> {
                 }
                 let (value, level) = if watch == Watch::Reaction {
                     let r = -sim.geometries[i].side * sim.reaction_at(i, t, state);
-                    (r, ON_BOUNDARY * (1.0 + r.abs()))
+                    (r, ON_BOUNDARY * (1.0 + r.abs() + sim.reaction_size_at(i, t, state)))
                 } else {
                     WatchValues::new(sim, i, state).watched(watch, ON_BOUNDARY / NOISE)
                 };
-                // A stick starts with its reaction flagged as departing (the
-                // search then takes a reaction at rounding level as the
-                // stick's own start, not a release); a pushing reaction
-                // makes the flag inert, and the state consistent.
-                let inert = watch == Watch::Reaction && value > 0.0;
+                // An event sets the flags of the functions it leaves on
+                // their boundary, and some leave it at once: a stick's
+                // reaction pushes, a dashpot's force jumps to c p' at an
+                // onset. The search's first point clears them; a run
+                // stopped before it (FMI 3.0's early return) keeps them,
+                // on the positive side, where the search would not read
+                // them. Such a flag is the event's own (set at the anchor
+                // too, and the search has not moved from it), not a claim
+                // that the function is on its boundary. The free segment takes an anchor flag's
+                // function as exactly zero: that claim must hold (but for
+                // the reaction, which a free segment does not watch).
+                let from_the_event =
+                    what == "departing" && counters.anchor_departing[slot] && st.probed == st.anchor_time && st.scan == st.anchor_time;
+                let inert = value > 0.0 && (watch == Watch::Reaction || from_the_event);
                 if value.abs() > level && !inert {
                     return Err(format!(
                         "simulation state: stop '{}' {what} flag {} set, but its {watch:?} function is {value:e} at the {point} t = {t}, \

@@ -24,7 +24,7 @@ use super::{Channel, SimError, Simulation};
 use crate::contact::{Contact, Watch};
 use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointContact};
 use crate::solve::switch::{first_switch, DenseWatch};
-use crate::solve::{Functional, Jet, ModalState};
+use crate::solve::{Functional, Jet, ModalState, REANCHOR_AFTER};
 
 /// How one channel is evaluated in an integrated phase.
 #[derive(Clone, Debug)]
@@ -50,6 +50,8 @@ pub(super) struct IntegratedSegment {
     pub exact: Option<(f64, DVector<f64>)>,
     pub anchor_time: f64,
     pub anchor: DVector<f64>,
+    /// Steps accepted since the anchor (see [`REANCHOR_AFTER`]).
+    pub steps: u64,
     /// Room for one integrated state (the switch locator's samples).
     buffer: std::cell::RefCell<DVector<f64>>,
 }
@@ -258,17 +260,54 @@ impl Simulation {
         if let Some(super::Segment::Integrated(previous)) = &self.spare {
             solver.adopt_kernels(&previous.solver);
         }
-        Ok(IntegratedSegment { buffer: DVector::zeros(dim).into(), phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor })
+        Ok(IntegratedSegment { buffer: DVector::zeros(dim).into(), phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor, steps: 0 })
     }
 
     /// Steps the integrated phase until its steps cover `t` (a restored
-    /// state replays its phase from the anchor).
+    /// state replays its phase from the anchor): at most
+    /// [`REANCHOR_AFTER`] steps, after which a run re-anchors; a state
+    /// further from its anchor (a corrupted time or search position) is
+    /// refused.
     pub(super) fn replay_to(&mut self, t: f64) -> Result<(), SimError> {
         let super::Segment::Integrated(seg) = &mut self.segment else { return Ok(()) };
         while seg.step.as_ref().map_or(seg.anchor_time < t, |s| s.1 < t) {
+            if seg.steps >= REANCHOR_AFTER {
+                return Err(SimError::Integration {
+                    time: seg.solver.t(),
+                    message: format!(
+                        "simulation state: t = {t} lies more than {REANCHOR_AFTER} integration steps after the phase's anchor {} (a run re-anchors after that many)",
+                        seg.anchor_time
+                    ),
+                });
+            }
             take_step(seg)?;
         }
         Ok(())
+    }
+
+    /// A new anchor at the end of the integrated phase's last step (after
+    /// [`REANCHOR_AFTER`] steps without a switch): the phase's totals are
+    /// closed there and its integration restarts from that state, so a
+    /// restore replays at most that many steps.
+    fn reanchor_integrated(&mut self) -> Result<(), SimError> {
+        let super::Segment::Integrated(seg) = &self.segment else { unreachable!("an integrated segment") };
+        let t = seg.solver.t();
+        let n = seg.phase.n;
+        let y = seg.solver.y();
+        let mut at = ModalState::zeros(n);
+        at.q.copy_from(&y.rows(0, n));
+        at.qd.copy_from(&y.rows(n, n));
+        self.account(t);
+        self.close_segment(t, &at);
+        self.state.anchor = at;
+        self.state.anchor_time = t;
+        self.state.scan = t;
+        self.state.probed = t;
+        for s in &mut self.state.stops {
+            s.departing = [false; 2];
+        }
+        self.mark_anchor_departing();
+        self.rebuild_segment()
     }
 
     /// The event search of an integrated phase from `scan` up to `t_end`:
@@ -284,13 +323,18 @@ impl Simulation {
                 return Ok(None);
             }
             let super::Segment::Integrated(seg) = &mut self.segment else { unreachable!("an integrated segment") };
+            if seg.step.as_ref().map_or(true, |s| s.1 <= scan) && seg.steps >= REANCHOR_AFTER {
+                self.reanchor_integrated()?;
+                continue;
+            }
+            let super::Segment::Integrated(seg) = &mut self.segment else { unreachable!("an integrated segment") };
             if seg.step.as_ref().map_or(true, |s| s.1 <= scan) {
                 let weight = crate::model::INTEGRATED_STEP_WEIGHT;
+                if *probes + weight > max_probes {
+                    return Err(SimError::TooMuchWork { time: scan, work: *probes, cap: "solver.max_probes_per_step" });
+                }
                 *probes += weight;
                 self.stats.probes += 1;
-                if *probes > max_probes {
-                    return Err(SimError::TooMuchWork { time: scan, work: *probes - weight, cap: "solver.max_probes_per_step" });
-                }
                 take_step(seg)?;
             }
             let (t0, t1, _) = seg.step.clone().expect("a step");
@@ -358,6 +402,25 @@ impl Simulation {
     }
 }
 
+impl Simulation {
+    /// The stops whose watched functions are at their zero at the switch a
+    /// run stopped just before (an integrated phase whose search position
+    /// lies before the time): the switch's own state is a Newton step past
+    /// their zero, so their contact state no longer matches it. Found
+    /// again from the search position, as a restore does; empty when the
+    /// run is not stopped before a switch.
+    pub(super) fn stops_at_pending_switch(&self) -> Vec<usize> {
+        if self.state.scan >= self.state.time || !matches!(self.segment, super::Segment::Integrated(_)) {
+            return Vec::new();
+        }
+        let mut search = self.clone();
+        match search.integrated_search(self.state.time, &mut 0) {
+            Ok(Some(found)) if found.time == self.state.time => found.at_zero.iter().map(|&(c, _)| search.channels[c].stop).collect(),
+            _ => Vec::new(),
+        }
+    }
+}
+
 /// A switch an integrated phase's search located.
 pub(super) struct IntegratedSwitch {
     pub time: f64,
@@ -374,6 +437,7 @@ fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
     seg.solver.prefill(&crate::solve::switch::grid(a, b));
     debug_assert_eq!(a, t0);
     seg.step = Some((a, b, y0));
+    seg.steps += 1;
     Ok(())
 }
 

@@ -316,7 +316,9 @@ impl Simulation {
         }
         if t_end > self.state.time && self.model.impulses {
             for i in 0..self.model.stops.len() {
-                self.state.stops[i].impulse_mark = self.impulse_total(i);
+                // An integrated phase's impulse may dip a rounding below
+                // zero at a contact's start: the mark never does.
+                self.state.stops[i].impulse_mark = self.impulse_total(i).max(0.0);
             }
         }
         let mut buffers = self.scratch.take().unwrap_or_else(|| ProbeBuffers::new(&self.dynamics));
@@ -381,7 +383,39 @@ impl Simulation {
         self.state.scan = self.state.time;
         self.mark_anchor_departing();
         self.rebuild_segment()?;
+        // A stick made at this very time flags its reaction as departing
+        // (see `claims`); under the new loads the reaction may pull off
+        // the boundary: the flag then no longer holds, and the search
+        // releases the stop here, before any output is read.
+        if self.drop_broken_reaction_claims() {
+            self.rebuild_segment()?;
+        }
         self.advance_to(self.state.time)
+    }
+
+    /// Drops the departing flags of held stops whose reaction now pulls
+    /// beyond the level the decoder takes as on the boundary (see
+    /// `codec::check_departing`); whether any was dropped.
+    fn drop_broken_reaction_claims(&mut self) -> bool {
+        let mut dropped = false;
+        for i in 0..self.model.stops.len() {
+            if self.state.stops[i].contact != Contact::Held {
+                continue;
+            }
+            let Some(slot) = self.model.stops[i].law.watches(Contact::Held).iter().position(|w| *w == crate::contact::Watch::Reaction) else { continue };
+            let flags = self.state.stops[i].departing[slot] || self.state.stops[i].anchor_departing[slot];
+            if !flags {
+                continue;
+            }
+            let (t, current) = (self.state.time, &self.state.current);
+            let push = -self.geometries[i].side * self.reaction_at(i, t, current);
+            if push < -codec::ON_BOUNDARY * (1.0 + push.abs() + self.reaction_size_at(i, t, current)) {
+                self.state.stops[i].departing[slot] = false;
+                self.state.stops[i].anchor_departing[slot] = false;
+                dropped = true;
+            }
+        }
+        dropped
     }
 
     /// Keeps the departing flags of a new anchor (part of the state: a

@@ -4,7 +4,7 @@
 
 use super::Channel;
 use super::integrated::IntegratedSwitch;
-use crate::contact::Switch;
+use crate::contact::{Contact, Switch};
 use crate::kind::Reached;
 use super::phases::Segment;
 use super::{SimError, Simulation};
@@ -142,14 +142,25 @@ impl Simulation {
         result
     }
 
-    /// Whether the functions at their zero (state `st`) change the state
-    /// or the phase (an impact, a stick, a switch), not only touch their
-    /// boundary.
+    /// Whether the functions at their zero (state `st`) make an event the
+    /// record reports (an impact, a stick, a release, a contact's onset or
+    /// the end of its push), not only touch their boundary: where an
+    /// advance may stop before the change.
     fn changes_state(&self, st: &ModalState, at_zero: &[(usize, Jet)]) -> bool {
         at_zero.iter().any(|(c, jet)| {
             let Channel { stop: i, watch, .. } = self.channels[*c];
             let contact = self.state.stops[i].contact;
-            !matches!(self.model.stops[i].law.on_zero(contact, watch, jet, self.geometries[i].penetration(&st.q)), Switch::Stay | Switch::Graze)
+            match self.model.stops[i].law.on_zero(contact, watch, jet, self.geometries[i].penetration(&st.q)) {
+                Switch::Stay | Switch::Graze => false,
+                // A compliant stop's switches that the event record leaves
+                // out (the point leaving a stop penetrated without force,
+                // or pressed again inside it) change the phase, not what
+                // an importer sees: no stop there (one per reported event).
+                Switch::To(next) if contact != Contact::Held => {
+                    matches!((contact, next), (Contact::Open, Contact::Pressed) | (Contact::Pressed, _))
+                }
+                _ => true,
+            }
         })
     }
 
@@ -234,9 +245,13 @@ impl Simulation {
         // The budget in points as a float, converted once: u64 to f64 is a
         // dozen instructions on x86-64 (i64 to f64 one), at every probe.
         let budget = self.model.max_probes_per_step as f64;
+        // The work the cap counts, kept in the stats as it grows.
+        let base = self.stats.work;
         loop {
             if matches!(self.segment, Segment::Integrated(_)) {
-                let Some(found) = self.integrated_search(t_end, &mut probes).inspect_err(|_| self.stop_at(self.state.scan.min(t_end)))? else { break };
+                let searched = self.integrated_search(t_end, &mut probes);
+                self.stats.work = base + probes + nodes as u64;
+                let Some(found) = searched.inspect_err(|_| self.stop_at(self.state.scan.min(t_end)))? else { break };
                 let IntegratedSwitch { time: te, state: at, at_zero, from } = found;
                 if stop_before.is_some() && self.changes_state(&at, &at_zero) && stop_before.as_mut().is_some_and(|f| f(te)) {
                     // The search finds the switch again from the sample its
@@ -280,10 +295,12 @@ impl Simulation {
                 let room = (budget - probes as i64 as f64 - nodes).max(0.0);
                 let at = if more > room { (counted + room / node_rate).clamp(counted, l) } else { l };
                 self.stop_at(at);
+                self.stats.work = base + (probes - 1) + nodes as u64;
                 return Err(SimError::TooMuchWork { time: at, work: probes - 1, cap: "solver.max_probes_per_step" });
             }
             nodes += more;
             counted = l;
+            self.stats.work = base + probes + nodes as u64;
             self.stats.probes += 1;
             match self.probe(l, st, buffers) {
                 Probe::Events { clear } => {

@@ -97,4 +97,8 @@ pub struct Stats {
     pub probes: u64,
     /// Events handled (each may hold several simultaneous ones).
     pub events: u64,
+    /// The work the cap of one step counts (`solver.max_probes_per_step`):
+    /// search points, integrated steps by their weight, and the energy
+    /// balance's quadrature nodes.
+    pub work: u64,
 }

@@ -28,6 +28,16 @@ impl Functional {
             + self.f.as_ref().map_or(0.0, |c| c.dot(f))
     }
 
+    /// The size of the terms of [`Self::value`] (the sum of their
+    /// magnitudes): what the value's rounding is relative to.
+    pub fn term_size(&self, state: &crate::solve::ModalState, f: &DVector<f64>) -> f64 {
+        let dot_abs = |a: &DVector<f64>, b: &DVector<f64>| a.iter().zip(b.iter()).map(|(x, y)| (x * y).abs()).sum::<f64>();
+        self.offset.abs()
+            + dot_abs(&self.q, &state.q)
+            + self.qd.as_ref().map_or(0.0, |b| dot_abs(b, &state.qd))
+            + self.f.as_ref().map_or(0.0, |c| dot_abs(c, f))
+    }
+
     /// The value for a state with no load (`c . f` left out).
     pub fn value_without_load(&self, state: &crate::solve::ModalState) -> f64 {
         self.offset + self.q.dot(&state.q) + self.qd.as_ref().map_or(0.0, |b| b.dot(&state.qd))

@@ -27,6 +27,13 @@ pub mod quadrature;
 pub mod radau;
 pub mod switch;
 
+/// An integrated phase (the rotating beam, a nonlinear stop's contact)
+/// restarts from the end of its last step after this many steps without a
+/// switch (a new anchor): a restored state never replays more. The count
+/// follows the step sequence alone, so results stay independent of the
+/// communication step.
+pub const REANCHOR_AFTER: u64 = 2000;
+
 pub use complex::C64;
 pub use forcing::{Harmonic, ModalForcing};
 pub use free::{FreeDynamics, FreeSegment};

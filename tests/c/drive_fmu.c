@@ -110,6 +110,9 @@ int main(int argc, char **argv) {
         MUST(fmi2Terminate(c));
         MUST(fmi2Reset(c));
     }
+    /* A state the importer leaves to fmi2FreeInstance, which frees it. */
+    fmi2FMUstate kept = NULL;
+    MUST(fmi2GetFMUstate(c, &kept));
     fmi2FreeInstance(c);
     free(vr);
     free(values);

@@ -13,6 +13,7 @@ are covered by test_range_ends.py and test_fuzz.py):
 
 import ctypes
 import math
+import re
 import struct
 import time
 
@@ -61,37 +62,47 @@ def test_the_fastest_admitted_load_over_a_huge_step_is_discarded_in_bounded_time
     inst = make_instance(logging_on=True)
     _, omega_max = declared("omega")
     inst.initialize(start_values={"omega": omega_max, "d": 0.5})
-    t0 = time.perf_counter()
+    inst.slave.setDebugLogging(True, ["logAll", "logStatusDiscard"])
     try:
         inst.slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=1000.0)
         status = 0
     except FMICallException as e:
         status = e.status
-    wall = time.perf_counter() - t0
     assert status == FMI2_DISCARD
-    assert wall < 10.0, f"a capped step took {wall:.1f} s"
+    # Bounded by the work the FMU counts against its cap (its time is a
+    # benchmark's: docs/scenes.md), not by the clock of a busy machine.
+    done, cap = step_work(inst)[-1]
+    assert 0.9 * cap < done <= cap, (done, cap)
     reached = ctypes.c_double()
     inst.slave.fmi2GetRealStatus(inst.slave.component, FMI2_LAST_SUCCESSFUL_TIME, ctypes.byref(reached))
     assert 0.0 < reached.value < 1000.0
     assert "work cap of one step" in inst.log.text()
 
 
+def step_work(inst):
+    """(work, cap) of every fmi2DoStep so far, from its logAll line."""
+    lines = re.findall(r"fmi2DoStep: work (\d+) of (\d+) .* \(the step's cap\)", inst.log.text())
+    return [(int(a), int(b)) for a, b in lines]
+
+
 @pytest.mark.parametrize("omega", [5e-324, 1e-200, 1e-100])
 def test_a_vanishing_load_frequency_steps_promptly(make_instance, omega):
-    inst = make_instance().initialize(start_values={"omega": omega})
-    t0 = time.perf_counter()
+    inst = make_instance(logging_on=True).initialize(start_values={"omega": omega})
+    inst.slave.setDebugLogging(True, ["logAll"])
     inst.step_to(1.0, 0.01)
-    assert time.perf_counter() - t0 < 5.0
+    work = step_work(inst)
+    assert len(work) == 100 and max(w for w, _ in work) <= 100, work
     assert abs(inst.get("w_stop")) < 1e-12
 
 
 @pytest.mark.parametrize("values", [{"F": 0.0}, {"omega": 0.0}, {"F": 0.0, "zeta": 0.0}, {"omega": 0.0, "zeta": 0.0}])
 def test_at_rest_on_the_stop_starts_and_stays_at_rest(make_instance, values):
-    inst = make_instance()
-    t0 = time.perf_counter()
+    inst = make_instance(logging_on=True)
     inst.initialize(start_values=values)
+    inst.slave.setDebugLogging(True, ["logAll"])
     inst.step_to(5.0, 0.01)
-    assert time.perf_counter() - t0 < 5.0
+    work = step_work(inst)
+    assert len(work) == 500 and max(w for w, _ in work) <= 100, max(work)
     assert inst.get("w_stop") == 0.0 and inst.get("v_stop") == 0.0 and inst.get("impacts") == 0
     assert inst.get("lambda") == 0.0
 
@@ -105,10 +116,17 @@ def test_a_step_that_cannot_move_the_time_is_refused(make_instance):
 
 
 def test_a_time_too_coarse_to_locate_impacts_is_refused(make_instance):
-    inst = make_instance().initialize(start_time=1e15)
+    inst = make_instance().initialize(start_time=2e9)
     with pytest.raises(FMICallException):
-        inst.step(1.0)
+        inst.step(2e9)  # to 4e9, where the time's resolution exceeds 1e-6 of the period
     assert "resolution" in inst.log.errors()[-1]
+    # A start there is refused at once, and the instance takes another.
+    fresh = make_instance()
+    with pytest.raises(FMICallException):
+        fresh.slave.setupExperiment(startTime=1e15)
+    assert "startTime = 1000000000000000" in fresh.log.errors()[-1] and "resolution" in fresh.log.errors()[-1]
+    fresh.initialize(start_time=1.0)
+    fresh.step(0.01)
 
 
 def test_a_failed_initialisation_is_remembered(make_instance):

@@ -169,6 +169,11 @@ impl Scene for PdLoaded {
          the torque saturates with the error pushing it further."
     }
 
+    fn shortest_period(&self) -> Result<f64, SimError> {
+        // Nothing to resolve but the slew (as its runs say).
+        Ok(self.0.t_slew.max(1.0))
+    }
+
     fn start(&self, start_time: f64, inputs: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let mut run = Controller { p: self.0.clone(), t_start: start_time, time: start_time, theta: 0.0, theta_dot: 0.0, sampled: false, torque: 0.0, theta_r: 0.0, integral: 0.0 };
         run.set_inputs(inputs)?;
@@ -314,6 +319,6 @@ impl Run for Controller {
     }
 
     fn work(&self) -> Work {
-        Work { events: 0, units: 0, unit: "samples" }
+        Work { events: 0, units: 0, unit: "samples", cap: u64::MAX }
     }
 }

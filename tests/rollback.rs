@@ -1,0 +1,253 @@
+//! Every state a run makes, it restores: the cases co-simulation masters
+//! that roll back met (issue 41), on the engine's own encoding. Each saves
+//! the state where the case arises, restores it through the versioned
+//! encoding and checks that the restored run continues bit for bit. The
+//! FMI-level cases (flags of the instance, freeing states, start times,
+//! early returns) are tests/python/test_rollback_cases.py.
+
+use std::time::Instant;
+
+use beamstop::codec::{Reader, Writer};
+use beamstop::component::Component;
+use beamstop::kind::{Reached, Run};
+use beamstop::variables::Value;
+
+const ROOT: &str = env!("CARGO_MANIFEST_DIR");
+
+fn component(name: &str) -> Component {
+    Component::from_json(&std::fs::read_to_string(format!("{ROOT}/scenes/{name}.json")).unwrap()).unwrap()
+}
+
+fn with(mut scene: Component, settings: &[(&str, f64)]) -> Component {
+    for &(name, value) in settings {
+        let k = scene.parameters().iter().position(|p| p.name == name).unwrap_or_else(|| panic!("no parameter {name}"));
+        scene.set(k, value);
+    }
+    scene.validate().unwrap();
+    scene
+}
+
+fn encode(run: &dyn Run) -> Vec<u8> {
+    let mut w = Writer(Vec::new());
+    run.encode(&mut w);
+    w.0
+}
+
+fn outputs(scene: &Component, run: &dyn Run) -> Vec<(String, u64)> {
+    (0..scene.outputs().len())
+        .map(|i| {
+            let bits = match run.evaluate(i) {
+                Value::Real(x) => x.to_bits(),
+                Value::Integer(i) => i as u64,
+                Value::Boolean(b) => b as u64,
+            };
+            (scene.outputs()[i].name.clone(), bits)
+        })
+        .collect()
+}
+
+fn output(scene: &Component, run: &dyn Run, name: &str) -> Value {
+    let i = scene.outputs().iter().position(|o| o.name == name).unwrap_or_else(|| panic!("no output {name}"));
+    run.evaluate(i)
+}
+
+/// Restores `run`'s encoding and checks that the copy continues bit for
+/// bit over `steps` steps of `h` (each as `advance` takes it).
+fn restores(scene: &Component, inputs: &[f64], run: &dyn Run, what: &str) -> Box<dyn Run> {
+    let saved = encode(run);
+    let restored = scene.decode(inputs, &mut Reader::new(&saved)).unwrap_or_else(|e| panic!("{what}: the state the run wrote is refused: {e}"));
+    assert_eq!(encode(restored.as_ref()), saved, "{what}: the restored state encodes differently");
+    assert_eq!(outputs(scene, restored.as_ref()), outputs(scene, run), "{what}: the restored outputs differ");
+    restored
+}
+
+fn same_after(scene: &Component, a: &mut dyn Run, b: &mut dyn Run, t: f64, what: &str) {
+    let ra = a.advance_to(t);
+    let rb = b.advance_to(t);
+    assert_eq!(ra, rb, "{what}: the restored run ends its step differently");
+    assert_eq!(outputs(scene, a), outputs(scene, b), "{what}: the restored run's outputs differ at t = {t}");
+}
+
+/// A run stepped by `h` with a save before every step, each save restored
+/// and stepped beside it; with `early` the steps stop before each event's
+/// change (FMI 3.0's early return with event mode), and saves are also
+/// taken there.
+fn every_save_restores(name: &str, scene: &Component, h: f64, steps: usize, early: bool) -> usize {
+    let start = scene.experiment().start;
+    let inputs = vec![0.0; scene.inputs().len()];
+    let mut run = scene.start(start, &inputs).unwrap();
+    let mut saves = 0;
+    let mut t = start;
+    for k in 0..steps {
+        let target = t + h;
+        loop {
+            let what = format!("{name} h = {h:e}, step {k} at t = {}", run.time());
+            let mut restored = restores(scene, &inputs, run.as_ref(), &what);
+            saves += 1;
+            if early {
+                let a = run.advance_to_event(target).unwrap();
+                let b = restored.advance_to_event(target).unwrap();
+                assert_eq!(a, b, "{what}");
+                assert_eq!(outputs(scene, run.as_ref()), outputs(scene, restored.as_ref()), "{what}");
+                if let Reached::Event(_) = a {
+                    // Saved with the event pending, restored, then made.
+                    let mut pending = restores(scene, &inputs, run.as_ref(), &format!("{what} (event pending)"));
+                    saves += 1;
+                    run.apply_events().unwrap();
+                    pending.apply_events().unwrap();
+                    assert_eq!(outputs(scene, run.as_ref()), outputs(scene, pending.as_ref()), "{what} (after the pending event)");
+                    continue;
+                }
+            } else {
+                same_after(scene, run.as_mut(), restored.as_mut(), target, &what);
+            }
+            break;
+        }
+        t = target;
+    }
+    saves
+}
+
+#[test]
+fn rotating_beam_at_a_loose_tolerance_restores_every_state() {
+    // 3,374 of 5,000 states refused at solver.tolerance = 1e-6, h = 1e-5:
+    // "penetration 1.27e-9 (allowed level 1e-9)".
+    for tolerance in [1e-3, 1e-4, 1e-6, 1e-9, 1e-13] {
+        let scene = with(component("rotating_beam"), &[("solver.tolerance", tolerance)]);
+        let saves = every_save_restores(&format!("RotatingBeamImpact tol {tolerance:e}"), &scene, 1e-5, 1500, false);
+        assert!(saves >= 1500);
+        every_save_restores(&format!("RotatingBeamImpact tol {tolerance:e}, early"), &scene, 1e-4, 150, true);
+    }
+}
+
+#[test]
+fn an_input_that_pulls_a_stuck_beam_off_releases_it_when_set() {
+    // PinnedBeamStop starts stuck on its stop; force = -1 set at t = 0
+    // makes the reaction pull: the outputs must not show it stuck with a
+    // pulling reaction, and the state saved then restores.
+    let scene = component("pinned_beam");
+    let start = scene.experiment().start;
+    let mut run = scene.start(start, &[0.0]).unwrap();
+    assert_eq!(output(&scene, run.as_ref(), "sticking"), Value::Boolean(true), "the default scene starts stuck");
+    run.set_inputs(&[-1.0]).unwrap();
+    assert_eq!(output(&scene, run.as_ref(), "sticking"), Value::Boolean(false), "stuck with a pulling force on it");
+    let Value::Real(lambda) = output(&scene, run.as_ref(), "lambda") else { panic!() };
+    assert_eq!(lambda, 0.0, "a released beam has no reaction");
+    let mut restored = restores(&scene, &[-1.0], run.as_ref(), "PinnedBeamStop force = -1 at t = 0");
+    same_after(&scene, run.as_mut(), restored.as_mut(), start + 0.5, "PinnedBeamStop force = -1");
+    // The same input given at the start is the same run.
+    let mut direct = scene.start(start, &[-1.0]).unwrap();
+    direct.advance_to(start + 0.5).unwrap();
+    assert_eq!(outputs(&scene, direct.as_ref()), outputs(&scene, run.as_ref()));
+    // Every input value a master may set before a save.
+    for force in [-1e3, -10.0, -1.0, -1e-6, 0.0, 1e-6, 1.0, 10.0, 1e3] {
+        let mut run = scene.start(start, &[0.0]).unwrap();
+        run.advance_to(start + 0.3).unwrap();
+        run.set_inputs(&[force]).unwrap();
+        let mut restored = restores(&scene, &[force], run.as_ref(), &format!("PinnedBeamStop force = {force} at t = 0.3"));
+        same_after(&scene, run.as_mut(), restored.as_mut(), start + 0.8, &format!("force = {force}"));
+    }
+}
+
+#[test]
+fn a_damped_spring_stop_stepped_from_event_to_event_restores_every_state() {
+    // SpringStopSoft with stop.c = 1, early return and event mode: 16 of
+    // 10,145 states refused ("departing flag 1 set ...", t = 0.0825).
+    let scene = with(component("spring_stop_soft"), &[("stop.c", 1.0)]);
+    let saves = every_save_restores("SpringStopSoft c = 1", &scene, 1e-4, 1500, true);
+    assert!(saves > 1500);
+}
+
+#[test]
+fn hertz_stop_saved_before_the_end_of_a_contact_restores() {
+    // HertzStop with q0[20] = 1: the state saved with an event pending at
+    // the end of a contact (t = 1.74e-5) was refused.
+    let scene = with(component("hertz_stop"), &[("q0[20]", 1.0)]);
+    every_save_restores("HertzStop q0[20] = 1", &scene, 1e-5, 60, true);
+}
+
+/// Overwrites the first f64 of `saved` equal to `old` with `new`.
+fn forge(saved: &[u8], old: f64, new: f64) -> Vec<u8> {
+    let bytes = old.to_bits().to_le_bytes();
+    let at = saved.windows(8).position(|w| w == bytes).expect("the field's value in the encoding");
+    let mut forged = saved.to_vec();
+    forged[at..at + 8].copy_from_slice(&new.to_bits().to_le_bytes());
+    forged
+}
+
+#[test]
+fn a_corrupted_time_is_refused_at_once() {
+    // A state saved inside a contact, with its time (or search position)
+    // set far ahead, made HertzStop's decoder replay without end.
+    let scene = component("hertz_stop");
+    let start = scene.experiment().start;
+    let mut run = scene.start(start, &[]).unwrap();
+    let mut t = start;
+    let saved = loop {
+        t += 1e-5;
+        run.advance_to(t).unwrap();
+        let state = encode(run.as_ref());
+        let Value::Boolean(contact) = output(&scene, run.as_ref(), "stop.contact") else { panic!() };
+        if contact {
+            break state;
+        }
+    };
+    for forged_time in [t + 100.0, 1e308, t + 1.0] {
+        let forged = forge(&saved, t, forged_time);
+        let clock = Instant::now();
+        let result = scene.decode(&[], &mut Reader::new(&forged));
+        assert!(result.is_err(), "a time of {forged_time} is accepted");
+        // A hang guard, far above the bounded replay's cost.
+        assert!(clock.elapsed().as_secs_f64() < 60.0, "refusing a time of {forged_time} took {:?}", clock.elapsed());
+    }
+}
+
+#[test]
+fn a_step_below_the_clocks_resolution_leaves_a_state_that_restores() {
+    // A step of 5e-324 left a negative impulse mark in the rotating state.
+    let scene = component("rotating_beam");
+    let start = scene.experiment().start;
+    let mut run = scene.start(start, &[0.0]).unwrap();
+    for k in 0..64 {
+        let tiny = run.time() + 5e-324;
+        run.advance_to(tiny).unwrap();
+        restores(&scene, &[0.0], run.as_ref(), &format!("RotatingBeamImpact after {} steps of 5e-324", k + 1));
+    }
+    let mut t = start;
+    for _ in 0..400 {
+        t += 1e-5;
+        run.advance_to(t).unwrap();
+        let tiny = run.time() + 5e-324;
+        run.advance_to(tiny).unwrap();
+        restores(&scene, &[0.0], run.as_ref(), &format!("RotatingBeamImpact after a step of 5e-324 at t = {t}"));
+    }
+}
+
+#[test]
+fn a_lasting_hertz_contact_reanchors_and_every_state_restores() {
+    // A beam pressed on a Hertz stop for many steps (a quasi-static push):
+    // the contact phase re-anchors every REANCHOR_AFTER steps, so a state
+    // deep in it restores by replaying at most that many.
+    let text = std::fs::read_to_string(format!("{ROOT}/scenes/hertz_stop.json")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    json["loads"][0]["omega"] = serde_json::json!(0.01);
+    json["loads"][0]["waveform"] = serde_json::json!("cos");
+    json["loads"][0]["amplitude"] = serde_json::json!(-40.0);
+    let scene = Component::from_json(&json.to_string()).unwrap();
+    let start = scene.experiment().start;
+    let mut run = scene.start(start, &[]).unwrap();
+    let h = 2e-3;
+    let mut t = start;
+    let mut pressed = 0;
+    for k in 0..400 {
+        let what = format!("pressed Hertz stop, step {k} at t = {t}");
+        let mut restored = restores(&scene, &[], run.as_ref(), &what);
+        t += h;
+        same_after(&scene, run.as_mut(), restored.as_mut(), t, &what);
+        if let Value::Boolean(true) = output(&scene, run.as_ref(), "stop.contact") {
+            pressed += 1;
+        }
+    }
+    assert!(pressed > 300, "the push holds the beam on the stop ({pressed} of 400 steps)");
+    assert!(run.work().units > 8 * 3 * beamstop::solve::REANCHOR_AFTER, "at least three re-anchors: {:?}", run.work());
+}
