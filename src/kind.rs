@@ -120,30 +120,33 @@ pub trait Run: Send + fmt::Debug + AnyRun {
     /// The shortest period the run must resolve (the time's resolution
     /// must stay well below it).
     fn shortest_period(&self) -> f64;
-    /// Advances to `t`, handling every event on the way (one exactly at
-    /// `t` included). A recoverable error leaves a valid state at the time
-    /// reached.
-    fn advance_to(&mut self, t: f64) -> Result<(), SimError>;
-    /// Advances to `t` or to the next event before it, whichever comes
-    /// first, stopping just before the event's discrete change. A kind
-    /// that does not stop at events handles them as [`Self::advance_to`].
-    fn advance_to_event(&mut self, t: f64) -> Result<Reached, SimError> {
-        self.advance_until(t, &mut |_| true)
+    /// The one advance every kind implements: to `until`, handling every
+    /// event on the way (one exactly at `until` included), except that
+    /// with `stop_before`, before the discrete change of each event on the
+    /// way (at time `te`) it asks `stop_before(te)` and stops there, just
+    /// before the change, when the answer is yes. One call is one advance:
+    /// its work cap covers every event it goes through. A recoverable
+    /// error leaves a valid state at the time reached. A kind that does
+    /// not stop at events handles them all.
+    fn advance(&mut self, until: f64, stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError>;
+    /// Advances to `t`, handling every event on the way.
+    fn advance_to(&mut self, t: f64) -> Result<(), SimError> {
+        self.advance(t, None).map(|_| ())
     }
-    /// Advances to `t` as [`Self::advance_to`] does, except that before
-    /// the discrete change of each event on the way (at time `te`) it asks
-    /// `stop_before(te)`, and stops there just before the change when the
-    /// answer is yes (as [`Self::advance_to_event`]). One call is one
-    /// advance: its work cap covers every event it goes through. A kind
-    /// that does not stop at events handles them as [`Self::advance_to`].
+    /// Advances to `t` or to the next event before it, whichever comes
+    /// first, stopping just before the event's discrete change.
+    fn advance_to_event(&mut self, t: f64) -> Result<Reached, SimError> {
+        self.advance(t, Some(&mut |_| true))
+    }
+    /// [`Self::advance`] with its question.
     fn advance_until(&mut self, t: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
-        let _ = stop_before;
-        self.advance_to(t).map(|()| Reached::Time)
+        self.advance(t, Some(stop_before))
     }
     /// Makes the discrete change of the events at the current time (after
     /// [`Reached::Event`]); nothing otherwise.
     fn apply_events(&mut self) -> Result<(), SimError> {
-        Ok(())
+        let now = self.time();
+        self.advance(now, None).map(|_| ())
     }
     /// Applies the inputs (in [`Variables::inputs`] order).
     fn set_inputs(&mut self, inputs: &[f64]) -> Result<(), SimError>;

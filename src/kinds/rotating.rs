@@ -116,20 +116,8 @@ impl Run for RotatingRun {
         self.sim.model().shortest_period()
     }
 
-    fn advance_to(&mut self, t: f64) -> Result<(), SimError> {
-        self.sim.advance_to(t)
-    }
-
-    fn advance_to_event(&mut self, t: f64) -> Result<Reached, SimError> {
-        self.sim.advance_to_event(t)
-    }
-
-    fn advance_until(&mut self, t: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
-        self.sim.advance_until(t, stop_before)
-    }
-
-    fn apply_events(&mut self) -> Result<(), SimError> {
-        self.sim.apply_pending_events()
+    fn advance(&mut self, until: f64, stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
+        self.sim.advance(until, stop_before)
     }
 
     fn set_inputs(&mut self, inputs: &[f64]) -> Result<(), SimError> {

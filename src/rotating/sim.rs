@@ -376,26 +376,12 @@ impl RotatingSimulation {
         self.advance(t_end, None).map(|_| ())
     }
 
-    /// Advances to `t_end` or to the next switch before it, stopping there
-    /// before the switch ([`Self::apply_pending_events`] makes it). The
-    /// switch is part of the step a restore replays: a saved state keeps it.
-    pub fn advance_to_event(&mut self, t_end: f64) -> Result<Reached, SimError> {
-        self.advance(t_end, Some(&mut |_| true))
-    }
-
-    /// Advances to `t_end`, stopping just before a switch where
-    /// `stop_before(te)` says so; every other switch is made. One advance:
-    /// one work cap.
-    pub fn advance_until(&mut self, t_end: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
-        self.advance(t_end, Some(stop_before))
-    }
-
-    /// Makes the switch at the current time (after [`Reached::Event`]).
-    pub fn apply_pending_events(&mut self) -> Result<(), SimError> {
-        self.advance(self.time, None).map(|_| ())
-    }
-
-    fn advance(&mut self, t_end: f64, mut stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
+    /// The advance of the contract ([`crate::kind::Run::advance`]): to
+    /// `t_end`, stopping just before a switch where `stop_before(te)` says
+    /// so (an advance to the same time makes it); every other switch is
+    /// made. The switch is part of the step a restore replays: a saved
+    /// state keeps it. One advance: one work cap.
+    pub fn advance(&mut self, t_end: f64, mut stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
         if !t_end.is_finite() {
             return Err(SimError::NonFinite { what: "requested time", value: t_end });
         }

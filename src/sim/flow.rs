@@ -86,7 +86,7 @@ impl Simulation {
         loop {
             let (t0, x0) = (self.state.time, self.state.current.clone());
             let before = self.clone();
-            let reached = self.advance_to_event(t_end)?;
+            let reached = self.advance(t_end, Some(&mut |_| true))?;
             let t1 = self.state.time;
             if t1 > t0 {
                 m = before.phase_transition(t0, &x0, t1)? * m;
@@ -193,7 +193,7 @@ impl Simulation {
         Ok((h, rate))
     }
 
-    /// Makes the pending event's change (as [`Self::apply_pending_events`])
+    /// Makes the pending event's change (an advance to the same time)
     /// and returns its saltation matrix (module doc).
     fn apply_events_with_saltation(&mut self) -> Result<DMatrix<f64>, SimError> {
         let n = self.model.n_modes();
@@ -202,7 +202,7 @@ impl Simulation {
         let f_minus = self.vector_field();
         let (recording, recorded) = (self.record_events, self.events.len());
         self.record_events = true;
-        self.apply_pending_events()?;
+        self.advance(self.state.time, None)?;
         let impacted = self.events[recorded..].iter().any(|e| matches!(e.kind, super::EventKind::Impact { .. } | super::EventKind::Stick { .. }));
         if !recording {
             self.events.truncate(recorded);

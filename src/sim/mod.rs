@@ -289,28 +289,13 @@ impl Simulation {
         self.advance(t_end, None).map(|_| ())
     }
 
-    /// Advances to `t_end` or to the next event that changes the state or
-    /// the phase before it, stopping there before the change (the state
-    /// just before it; [`Self::apply_pending_events`] makes it). The events
-    /// are found again from the state alone, so a saved state keeps them.
-    pub fn advance_to_event(&mut self, t_end: f64) -> Result<Reached, SimError> {
-        self.advance(t_end, Some(&mut |_| true))
-    }
-
-    /// Advances to `t_end`, stopping just before the change of an event
-    /// where `stop_before(te)` says so (as [`Self::advance_to_event`]);
-    /// every other event is handled. One advance: one work cap.
-    pub fn advance_until(&mut self, t_end: f64, stop_before: &mut dyn FnMut(f64) -> bool) -> Result<Reached, SimError> {
-        self.advance(t_end, Some(stop_before))
-    }
-
-    /// Makes the change of the events at the current time (after
-    /// [`Reached::Event`]); nothing otherwise.
-    pub fn apply_pending_events(&mut self) -> Result<(), SimError> {
-        self.advance(self.state.time, None).map(|_| ())
-    }
-
-    fn advance(&mut self, t_end: f64, stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
+    /// The advance of the contract ([`crate::kind::Run::advance`]): to
+    /// `t_end`, stopping just before the change of an event that the
+    /// record reports where `stop_before(te)` says so (the state just
+    /// before it; an advance to the same time makes it). The events are
+    /// found again from the state alone, so a saved state keeps them. One
+    /// advance: one work cap.
+    pub fn advance(&mut self, t_end: f64, stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
         if t_end < self.state.time {
             return Err(SimError::Backwards { now: self.state.time, requested: t_end });
         }

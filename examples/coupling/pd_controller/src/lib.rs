@@ -40,7 +40,7 @@
 use std::sync::Arc;
 
 use beamstop::codec::{Reader, Writer};
-use beamstop::kind::{EventRecord, Kind, Registration, Run, Scene, SimError, Work};
+use beamstop::kind::{EventRecord, Kind, Reached, Registration, Run, Scene, SimError, Work};
 use beamstop::variables::{Experiment, Input, Output, OutputType, Parameter, Range, Unit, Value, Variables};
 use serde::{Deserialize, Serialize};
 use serde_json::Value as Json;
@@ -271,12 +271,13 @@ impl Run for Controller {
         self.p.t_slew.max(1.0)
     }
 
-    fn advance_to(&mut self, t: f64) -> Result<(), SimError> {
+    /// A sampled controller has no events: every advance reaches `t`.
+    fn advance(&mut self, t: f64, _stop_before: Option<&mut dyn FnMut(f64) -> bool>) -> Result<Reached, SimError> {
         if t < self.time {
             return Err(SimError::Backwards { now: self.time, requested: t });
         }
         if t == self.time {
-            return Ok(());
+            return Ok(Reached::Time);
         }
         let s = self.law(self.time);
         self.torque = s.torque;
@@ -286,7 +287,7 @@ impl Run for Controller {
         }
         self.sampled = true;
         self.time = t;
-        Ok(())
+        Ok(Reached::Time)
     }
 
     fn set_inputs(&mut self, inputs: &[f64]) -> Result<(), SimError> {
