@@ -17,25 +17,6 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance,
                                size_t nCategories,
                                const fmi3String *categories);
 
-fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
-                                          fmi3String instantiationToken,
-                                          fmi3String resourcePath,
-                                          fmi3Boolean visible,
-                                          fmi3Boolean loggingOn,
-                                          fmi3InstanceEnvironment instanceEnvironment,
-                                          fmi3LogMessageCallback logMessage);
-
-fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName,
-                                               fmi3String instantiationToken,
-                                               fmi3String resourcePath,
-                                               fmi3Boolean visible,
-                                               fmi3Boolean loggingOn,
-                                               fmi3InstanceEnvironment instanceEnvironment,
-                                               fmi3LogMessageCallback logMessage,
-                                               fmi3ClockUpdateCallback clockUpdate,
-                                               fmi3LockPreemptionCallback lockPreemption,
-                                               fmi3UnlockPreemptionCallback unlockPreemption);
-
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName,
                                          fmi3String instantiationToken,
                                          fmi3String resourcePath,
@@ -89,6 +70,62 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance,
                           size_t nValueReferences,
                           const fmi3Float64 *values,
                           size_t nValues);
+
+fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState);
+
+fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState);
+
+fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState);
+
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size);
+
+fmi3Status fmi3SerializeFMUState(fmi3Instance instance,
+                                 fmi3FMUState FMUState,
+                                 fmi3Byte *serializedState,
+                                 size_t size);
+
+fmi3Status fmi3DeserializeFMUState(fmi3Instance instance,
+                                   const fmi3Byte *serializedState,
+                                   size_t size,
+                                   fmi3FMUState *FMUState);
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance,
+                                    fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation,
+                                    fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged,
+                                    fmi3Boolean *nextEventTimeDefined,
+                                    fmi3Float64 *nextEventTime);
+
+fmi3Status fmi3EnterStepMode(fmi3Instance instance);
+
+fmi3Status fmi3DoStep(fmi3Instance instance,
+                      fmi3Float64 currentCommunicationPoint,
+                      fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                      fmi3Boolean *eventHandlingNeeded,
+                      fmi3Boolean *terminateSimulation,
+                      fmi3Boolean *earlyReturn,
+                      fmi3Float64 *lastSuccessfulTime);
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName,
+                                          fmi3String instantiationToken,
+                                          fmi3String resourcePath,
+                                          fmi3Boolean visible,
+                                          fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment,
+                                          fmi3LogMessageCallback logMessage);
+
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName,
+                                               fmi3String instantiationToken,
+                                               fmi3String resourcePath,
+                                               fmi3Boolean visible,
+                                               fmi3Boolean loggingOn,
+                                               fmi3InstanceEnvironment instanceEnvironment,
+                                               fmi3LogMessageCallback logMessage,
+                                               fmi3ClockUpdateCallback clockUpdate,
+                                               fmi3LockPreemptionCallback lockPreemption,
+                                               fmi3UnlockPreemptionCallback unlockPreemption);
 
 fmi3Status fmi3GetFloat32(fmi3Instance instance,
                           const fmi3ValueReference *valueReferences,
@@ -246,24 +283,6 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance,
                                        fmi3DependencyKind *dependencyKinds,
                                        size_t nDependencies);
 
-fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState);
-
-fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState);
-
-fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState);
-
-fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size);
-
-fmi3Status fmi3SerializeFMUState(fmi3Instance instance,
-                                 fmi3FMUState FMUState,
-                                 fmi3Byte *serializedState,
-                                 size_t size);
-
-fmi3Status fmi3DeserializeFMUState(fmi3Instance instance,
-                                   const fmi3Byte *serializedState,
-                                   size_t size,
-                                   fmi3FMUState *FMUState);
-
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance,
                                         const fmi3ValueReference *unknowns,
                                         size_t nUnknowns,
@@ -336,14 +355,6 @@ fmi3Status fmi3SetShiftFraction(fmi3Instance instance,
 
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance);
 
-fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance,
-                                    fmi3Boolean *discreteStatesNeedUpdate,
-                                    fmi3Boolean *terminateSimulation,
-                                    fmi3Boolean *nominalsOfContinuousStatesChanged,
-                                    fmi3Boolean *valuesOfContinuousStatesChanged,
-                                    fmi3Boolean *nextEventTimeDefined,
-                                    fmi3Float64 *nextEventTime);
-
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance);
 
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance,
@@ -377,23 +388,12 @@ fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventI
 
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates);
 
-fmi3Status fmi3EnterStepMode(fmi3Instance instance);
-
 fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance,
                                     const fmi3ValueReference *valueReferences,
                                     size_t nValueReferences,
                                     const fmi3Int32 *orders,
                                     fmi3Float64 *values,
                                     size_t nValues);
-
-fmi3Status fmi3DoStep(fmi3Instance instance,
-                      fmi3Float64 currentCommunicationPoint,
-                      fmi3Float64 communicationStepSize,
-                      fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                      fmi3Boolean *eventHandlingNeeded,
-                      fmi3Boolean *terminateSimulation,
-                      fmi3Boolean *earlyReturn,
-                      fmi3Float64 *lastSuccessfulTime);
 
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance,
                                       fmi3ValueReference clockReference,

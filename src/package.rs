@@ -10,6 +10,7 @@ use zip::write::SimpleFileOptions;
 
 use crate::component::Component;
 use crate::fmi::variables::{Causality, Variability, VariableTable};
+use crate::fmi::xml::escape;
 
 /// The FMI standard an FMU archive follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,10 +72,6 @@ pub fn platform() -> &'static str {
     } else {
         "unknown"
     }
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
 
 /// documentation/index.html: what the model is, its variables, an example.

@@ -4,14 +4,14 @@
 
 use super::state::Status;
 
-/// The log categories this FMU declares, with their descriptions (in FMI
-/// 2.0 words; the FMI 3.0 modelDescription.xml says fmi3 for fmi2).
+/// The log categories this FMU declares, with their descriptions (`{fmi}`
+/// stands for the standard's prefix, fmi2 or fmi3: see `xml::log_categories`).
 pub const CATEGORIES: [(&str, &str); 6] = [
     ("logEvents", "Impacts, chatter ends, sticking and release, with their exact times"),
-    ("logStatusWarning", "Messages with status fmi2Warning"),
-    ("logStatusDiscard", "Messages with status fmi2Discard"),
-    ("logStatusError", "Messages with status fmi2Error: what was wrong and what is allowed"),
-    ("logStatusFatal", "Messages with status fmi2Fatal"),
+    ("logStatusWarning", "Messages with status {fmi}Warning"),
+    ("logStatusDiscard", "Messages with status {fmi}Discard"),
+    ("logStatusError", "Messages with status {fmi}Error: what was wrong and what is allowed"),
+    ("logStatusFatal", "Messages with status {fmi}Fatal"),
     ("logAll", "Each call that changes the instance state"),
 ];
 

@@ -2,7 +2,7 @@
 //! core over the simulation contract (`instance`: parameters, inputs,
 //! outputs, steps, snapshots), its variable table, the logger, the
 //! resource location, the FMU states handed out (`states`), the serialized
-//! state and the panic boundary of the
+//! state, the XML both modelDescriptions write (`xml`) and the panic boundary of the
 //! C entry points. Each shell (`crate::fmi2`, `crate::fmi3`) adds only its
 //! C signatures, its state-machine table and its modelDescription.xml.
 
@@ -14,5 +14,6 @@ pub mod serialize;
 pub mod state;
 pub mod states;
 pub mod variables;
+pub mod xml;
 
 pub use state::{Call, ModelState, Status};

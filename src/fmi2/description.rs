@@ -7,20 +7,8 @@ use std::fmt::Write;
 
 use crate::component::Component;
 
-use crate::fmi::logging::CATEGORIES;
-use crate::variables::Unit;
-
 use crate::fmi::variables::{Causality, VarType, Variability, VariableTable};
-
-pub fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
-}
-
-/// Shortest round-trip form of a number, as XML wants it.
-pub fn num(x: f64) -> String {
-    let s = format!("{x:?}");
-    s.strip_suffix(".0").map(str::to_string).unwrap_or(s)
-}
+use crate::fmi::xml::{escape, log_categories, num, unit_definitions};
 
 pub fn model_description(scene: &Component) -> String {
     let table = VariableTable::new(scene);
@@ -39,11 +27,7 @@ pub fn model_description(scene: &Component) -> String {
         r#"  <CoSimulation modelIdentifier="{id}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#
     );
     unit_definitions(&mut x, &table, None);
-    let _ = writeln!(x, "  <LogCategories>");
-    for (name, description) in CATEGORIES {
-        let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(description));
-    }
-    let _ = writeln!(x, "  </LogCategories>");
+    log_categories(&mut x, "fmi2");
     let e = scene.experiment();
     let _ = writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, num(e.start), num(e.stop), num(e.step));
     let _ = writeln!(x, "  <ModelVariables>");
@@ -106,26 +90,3 @@ pub fn model_description(scene: &Component) -> String {
     x
 }
 
-/// The UnitDefinitions of the table's Real variables and `extra` (the same
-/// element in FMI 2.0 and 3.0).
-pub fn unit_definitions(x: &mut String, table: &VariableTable, extra: Option<Unit>) {
-    let mut units: Vec<Unit> = table.variables.iter().filter(|v| v.ty == VarType::Real).map(|v| v.unit).chain(extra).collect();
-    units.sort();
-    units.dedup();
-    let _ = writeln!(*x, "  <UnitDefinitions>");
-    for u in &units {
-        let Some(e) = u.si_exponents() else {
-            // Fractional exponents (N/m^1.5) have no BaseUnit in FMI 2.0.
-            let _ = writeln!(*x, r#"    <Unit name="{}"/>"#, escape(u.name()));
-            continue;
-        };
-        let mut attrs = String::new();
-        for (name, exp) in ["kg", "m", "s", "rad"].iter().zip(e) {
-            if exp != 0 {
-                let _ = write!(attrs, r#" {name}="{exp}""#);
-            }
-        }
-        let _ = writeln!(*x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, escape(u.name()));
-    }
-    let _ = writeln!(*x, "  </UnitDefinitions>");
-}

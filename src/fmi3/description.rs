@@ -9,9 +9,8 @@
 use std::fmt::Write;
 
 use crate::component::Component;
-use crate::fmi::logging::CATEGORIES;
 use crate::fmi::variables::{Causality, VarType, Variability, VariableTable};
-use crate::fmi2::description::{escape, num, unit_definitions};
+use crate::fmi::xml::{escape, log_categories, num, unit_definitions};
 use crate::variables::Unit;
 
 /// The name of the independent variable.
@@ -46,11 +45,7 @@ pub fn model_description(scene: &Component) -> String {
     let scaled = table.variables.iter().all(|v| v.ty != VarType::Real || v.unit == Unit::One);
     let time_unit = if scaled { Unit::One } else { Unit::Second };
     unit_definitions(&mut x, &table, Some(time_unit));
-    let _ = writeln!(x, "  <LogCategories>");
-    for (name, description) in CATEGORIES {
-        let _ = writeln!(x, r#"    <Category name="{name}" description="{}"/>"#, escape(&description.replace("fmi2", "fmi3")));
-    }
-    let _ = writeln!(x, "  </LogCategories>");
+    log_categories(&mut x, "fmi3");
     let e = scene.experiment();
     let _ = writeln!(x, r#"  <DefaultExperiment startTime="{}" stopTime="{}" stepSize="{}"/>"#, num(e.start), num(e.stop), num(e.step));
     let _ = writeln!(x, "  <ModelVariables>");
