@@ -8,7 +8,7 @@
 //! Kinds register themselves with `inventory::submit!` of a
 //! [`Registration`] (the beam kinds in [`crate::kinds`]; a crate that
 //! builds an FMU of its own kind submits it there), and a scene file goes
-//! to the first kind that recognizes it.
+//! to the one kind that recognizes it.
 
 use std::any::Any;
 use std::fmt;
@@ -40,12 +40,22 @@ pub fn kinds() -> impl Iterator<Item = &'static dyn Kind> {
     inventory::iter::<Registration>.into_iter().map(|r| r.0)
 }
 
-/// The kind of a scene file.
+/// The kind of a scene file: the one kind that recognizes it (a file two
+/// kinds recognize is refused, naming both).
 pub fn kind_of(scene: &Json) -> Result<&'static dyn Kind, String> {
-    kinds().find(|k| k.recognizes(scene)).ok_or_else(|| {
-        let names: Vec<&str> = kinds().map(|k| k.name()).collect();
-        format!("scene: not a scene of any kind this build knows ({})", names.join(", "))
-    })
+    let mut matching = kinds().filter(|k| k.recognizes(scene));
+    match (matching.next(), matching.next()) {
+        (Some(kind), None) => Ok(kind),
+        (Some(a), Some(b)) => Err(format!(
+            "scene: recognized by two kinds, {} and {}: a scene file has the keys of one kind only",
+            a.name(),
+            b.name()
+        )),
+        (None, _) => {
+            let names: Vec<&str> = kinds().map(|k| k.name()).collect();
+            Err(format!("scene: not a scene of any kind this build knows ({})", names.join(", ")))
+        }
+    }
 }
 
 /// A validated scene of some kind: its variables, and runs of it.

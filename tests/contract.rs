@@ -45,6 +45,16 @@ fn the_shipped_kinds_are_registered() {
 }
 
 /// A state-changing event (not a graze).
+#[test]
+fn a_scene_two_kinds_recognize_is_refused_naming_both() {
+    let modal: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(format!("{ROOT}/scenes/pinned_beam.json")).unwrap()).unwrap();
+    let rotating: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(format!("{ROOT}/scenes/rotating_beam.json")).unwrap()).unwrap();
+    let mut both = modal.clone();
+    both["beam"] = rotating["beam"].clone();
+    let message = Component::from_json(&both.to_string()).unwrap_err();
+    assert!(message.contains("modal") && message.contains("rotating"), "{message}");
+}
+
 fn changes(class: EventClass) -> bool {
     !matches!(class, EventClass::Graze)
 }

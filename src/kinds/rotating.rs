@@ -19,7 +19,7 @@ impl Kind for RotatingKind {
     }
 
     fn recognizes(&self, scene: &Json) -> bool {
-        scene.get("beam").is_some() && scene.get("structure").is_none()
+        scene.get("beam").is_some()
     }
 
     fn load(&self, scene: &Json) -> Result<Box<dyn Scene>, String> {
