@@ -9,8 +9,8 @@ use std::ffi::CString;
 
 use beamstop::fmi2::api::*;
 use beamstop::fmi2::types::*;
-use beamstop::interface::ParamKey;
-use beamstop::{Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 use criterion::{criterion_group, criterion_main, Criterion};
 
 fn pinned() -> Scene {

@@ -77,7 +77,7 @@ use std::time::Instant;
 
 use beamstop::contact::{Hertz, Law};
 use beamstop::solve::ModalForcing;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use brent::brent;
 use beamstop::solve::dop853::{self, Dop853, Rhs};
 use nalgebra::DVector;
@@ -371,7 +371,7 @@ fn scene_with(tol: f64, stiffness: Option<f64>) -> Model {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/hertz_stop.json");
     let mut scene = Scene::from_json(&std::fs::read_to_string(path).unwrap()).unwrap();
     if let Some(n) = MODES.get().copied().flatten() {
-        if let beamstop::scene::StructureSpec::Beam { modes, .. } = &mut scene.structure {
+        if let beamstop::kinds::modal::scene::StructureSpec::Beam { modes, .. } = &mut scene.structure {
             *modes = n;
         }
     }

@@ -9,9 +9,10 @@
 
 use std::time::Instant;
 
-use beamstop::interface::{Limits, ParamKey};
-use beamstop::scene::StructureSpec;
-use beamstop::{Model, Scene, SimError, Simulation};
+use beamstop::kinds::modal::interface::{Limits, ParamKey};
+use beamstop::kinds::modal::scene::StructureSpec;
+use beamstop::SimError;
+use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 
 fn main() {
     let base = Scene::from_json(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap()).unwrap();

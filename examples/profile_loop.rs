@@ -10,9 +10,9 @@
 
 use std::f64::consts::PI;
 
-use beamstop::interface::ParamKey;
-use beamstop::scene::StructureSpec;
-use beamstop::{Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::scene::StructureSpec;
+use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();

@@ -73,8 +73,8 @@ use std::io::Write;
 use std::time::Instant;
 
 use beamstop::contact::{Contact, Law};
-use beamstop::interface::ParamKey;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use brent::brent;
 use beamstop::solve::dop853::{self, Dop853, Rhs};
 

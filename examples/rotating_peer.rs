@@ -73,7 +73,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use beamstop::contact::{Hertz, HertzDamping};
-use beamstop::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
+use beamstop::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use beamstop::structure::rotating::Order;
 use brent::brent;
 use beamstop::solve::dop853::{self, Dop853, Rhs};

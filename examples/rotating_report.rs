@@ -19,8 +19,8 @@ use std::f64::consts::TAU;
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use beamstop::rotating::spec::{OrderSpec, RotatingSpec};
-use beamstop::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation};
+use beamstop::kinds::rotating::spec::{OrderSpec, RotatingSpec};
+use beamstop::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation};
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 

@@ -18,9 +18,9 @@ use std::f64::consts::PI;
 use std::io::Write;
 use std::time::Instant;
 
-use beamstop::interface::ParamKey;
-use beamstop::scene::StructureSpec;
-use beamstop::{Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::scene::StructureSpec;
+use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 
 fn scene_text(file: &str) -> String {
     let path = format!("{}/scenes/{file}", env!("CARGO_MANIFEST_DIR"));

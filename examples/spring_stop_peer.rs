@@ -75,8 +75,8 @@ use std::io::Write;
 use std::time::Instant;
 
 use beamstop::contact::Law;
-use beamstop::scene::StructureSpec;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::scene::StructureSpec;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use beamstop::solve::dop853::{self, Dop853, Rhs};
 
 const T_END: f64 = 0.5;

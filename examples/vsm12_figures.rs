@@ -10,8 +10,8 @@
 
 use std::f64::consts::{PI, SQRT_2};
 
-use beamstop::interface::ParamKey;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 
 fn main() {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap();

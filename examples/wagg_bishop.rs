@@ -8,8 +8,8 @@
 //! 2. The tip-impact cantilever with 1 mode (r = 0.2) and 4 modes
 //!    (r = 0.75), and the crossed pairs: amplitude and impact velocity.
 
-use beamstop::interface::ParamKey;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 
 fn load(name: &str) -> Scene {
     let path = format!("{}/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"));

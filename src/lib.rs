@@ -2,13 +2,15 @@
 //!
 //! Data flows one way: a scene file -> a kind's model -> its simulation
 //! -> the FMI layer. [`kind`] is the contract every kind of simulation
-//! implements (its scene, its variables, its runs), [`kinds`] registers
-//! the ones shipped here: the modal structures ([`scene`] -> [`model`] ->
-//! [`sim`], exact between events) and the rotating hub beam
-//! ([`rotating`], integrated). [`component`] holds a scene of any kind
-//! with its current parameter values; [`fmi2`], [`package`] and the
-//! command line are written once against the contract. Nothing below
-//! `fmi2` knows about FMI.
+//! implements (its scene, its variables, its runs); [`kinds`] holds the
+//! ones shipped here, each in a folder of its own and registered in one
+//! place: the modal structures ([`kinds::modal`]: scene -> model -> sim,
+//! exact between events) and the rotating hub beam ([`kinds::rotating`],
+//! integrated). Beside them the shared physics ([`contact`],
+//! [`structure`], [`solve`]), [`component`] (a scene of any kind with its
+//! current parameter values), the FMI layer ([`fmi`], [`fmi2`], [`fmi3`],
+//! [`package`]) and the tools ([`orbits`], the command line), written
+//! once against the contract. Nothing below the FMI layer knows about FMI.
 
 pub mod codec;
 pub mod component;
@@ -18,16 +20,10 @@ pub mod fields;
 pub mod fmi;
 pub mod fmi2;
 pub mod fmi3;
-pub mod interface;
 pub mod kind;
 pub mod kinds;
-pub mod model;
 pub mod orbits;
 pub mod package;
-pub mod readout;
-pub mod rotating;
-pub mod scene;
-pub mod sim;
 pub mod solve;
 pub mod structure;
 pub mod units;
@@ -36,6 +32,3 @@ pub mod variables;
 pub use component::Component;
 pub use error::SimError;
 pub use kind::{Kind, Run};
-pub use model::Model;
-pub use scene::Scene;
-pub use sim::{Event, EventKind, Simulation};

@@ -5,7 +5,7 @@
 //! limit.
 
 use beamstop::contact::{Contact, Law};
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use nalgebra::DVector;
 
 mod common;
@@ -218,7 +218,7 @@ fn a_stiff_stop_with_matched_damping_approaches_the_rigid_restitution_rule() {
         let w = model.stops[0].geometry.w.clone();
         let m_eff = 1.0 / w.dot(&w);
         let c = 2.0 * zeta * (k * m_eff).sqrt();
-        s.stops[0].law = beamstop::scene::StopLaw::SpringDashpot(beamstop::contact::SpringDashpot { k, c, method: Default::default(), transfer_damping: Default::default() });
+        s.stops[0].law = beamstop::kinds::modal::scene::StopLaw::SpringDashpot(beamstop::contact::SpringDashpot { k, c, method: Default::default(), transfer_damping: Default::default() });
         let mut sim = Simulation::new(Model::build(&s).unwrap(), 0.0).unwrap();
         let mut approach = None;
         let mut rebound = None;
@@ -269,6 +269,6 @@ fn an_initial_penetration_is_a_legal_start() {
     let separations = sim.drain_events().into_iter().filter(|e| matches!(e.kind, EventKind::Separation { .. })).count();
     assert!(separations >= 1);
     let mut rigid = s.clone();
-    rigid.stops[0].law = beamstop::scene::StopLaw::Restitution(beamstop::contact::Restitution { restitution: 0.5, chatter_eps: 1e-6 });
+    rigid.stops[0].law = beamstop::kinds::modal::scene::StopLaw::Restitution(beamstop::contact::Restitution { restitution: 0.5, chatter_eps: 1e-6 });
     assert!(Simulation::new(Model::build(&rigid).unwrap(), 0.0).is_err());
 }

@@ -15,10 +15,10 @@
 
 mod common;
 
-use beamstop::interface::ParamKey;
-use beamstop::sim::state_vector;
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::sim::state_vector;
 use beamstop::solve::ModalState;
-use beamstop::{Model, Scene, Simulation};
+use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 use nalgebra::{DMatrix, DVector};
 
 fn with(mut scene: Scene, values: &[(ParamKey, f64)]) -> Scene {

@@ -12,8 +12,8 @@ use beamstop::component::Component;
 use beamstop::kind::Run;
 use beamstop::kinds::rotating::RotatingRun;
 use beamstop::contact::Contact;
-use beamstop::sim::SimState;
-use beamstop::{Model, Simulation};
+use beamstop::kinds::modal::sim::SimState;
+use beamstop::kinds::modal::{model::Model, sim::Simulation};
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
@@ -149,7 +149,7 @@ mod rotating {
     const CONTACT: usize = 9;
     const NUMBERS: usize = CONTACT + 1 + 7 * 8 + 8 + 8;
 
-    fn rotating(run: &dyn Run) -> &beamstop::rotating::RotatingSimulation {
+    fn rotating(run: &dyn Run) -> &beamstop::kinds::rotating::RotatingSimulation {
         &run.as_any().downcast_ref::<RotatingRun>().expect("a rotating run").sim
     }
 

@@ -8,7 +8,7 @@
 
 use beamstop::codec::{Reader, Writer};
 use beamstop::contact::{Contact, Law};
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use nalgebra::DVector;
 
 mod common;

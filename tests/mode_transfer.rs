@@ -9,8 +9,8 @@
 mod common;
 
 use beamstop::codec::{Reader, Writer};
-use beamstop::scene::{ContactMethod, StopLaw, StructureSpec, TransferDamping};
-use beamstop::{Model, Scene, Simulation};
+use beamstop::kinds::modal::scene::{ContactMethod, StopLaw, StructureSpec, TransferDamping};
+use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 
 fn hard(method: ContactMethod, modes: usize, damping: TransferDamping) -> Scene {
     let mut scene = common::scene("spring_stop_hard");

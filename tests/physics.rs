@@ -6,8 +6,9 @@ use std::f64::consts::{PI, SQRT_2};
 
 mod common;
 
-use beamstop::interface::ParamKey;
-use beamstop::{EventKind, Model, Scene, SimError, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::SimError;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use nalgebra::DVector;
 
 fn pinned_scene() -> Scene {

@@ -15,7 +15,7 @@ use beamstop::component::Component;
 use beamstop::kind::Run;
 use beamstop::kinds::modal::ModalRun;
 use beamstop::kinds::rotating::RotatingRun;
-use beamstop::scene::Range;
+use beamstop::kinds::modal::scene::Range;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 

@@ -6,10 +6,11 @@
 
 mod common;
 
-use beamstop::interface::ParamKey;
+use beamstop::kinds::modal::interface::ParamKey;
 use beamstop::contact::Contact;
-use beamstop::sim::SimState;
-use beamstop::{EventKind, Model, Scene, SimError, Simulation};
+use beamstop::kinds::modal::sim::SimState;
+use beamstop::SimError;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 
 fn with(mut scene: Scene, values: &[(ParamKey, f64)]) -> Scene {
     for (k, v) in values {
@@ -213,7 +214,7 @@ fn restored_energy_balance_is_validated() {
 fn the_energy_balance_counts_against_the_cap() {
     let mut scene = common::scene("wagg_bishop_chain");
     assert!(scene.outputs.energy_balance);
-    let omega_max = beamstop::interface::Limits::of(&scene).load_frequency_range().max;
+    let omega_max = beamstop::kinds::modal::interface::Limits::of(&scene).load_frequency_range().max;
     ParamKey::LoadOmega(0).set(&mut scene, omega_max);
     scene.solver.max_probes_per_step = Some(200_000);
     let mut sim = start(&scene);

@@ -1,4 +1,4 @@
-//! The rotating hub beam's engine (`beamstop::rotating`) against
+//! The rotating hub beam's engine (`beamstop::kinds::rotating`) against
 //! independent computations: energy and angular momentum by quadrature
 //! along the beam (not from the assembled matrices), fixed-step RK4
 //! references with their own switch location, and the run's own
@@ -7,10 +7,10 @@
 use std::f64::consts::TAU;
 use std::sync::Arc;
 
-use beamstop::rotating::spec::{HubDrive, Profile};
+use beamstop::kinds::rotating::spec::{HubDrive, Profile};
 use beamstop::codec::{Reader, Writer};
 use beamstop::contact::Law;
-use beamstop::rotating::{RotatingEvent, RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
+use beamstop::kinds::rotating::{RotatingEvent, RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use beamstop::SimError;
 use beamstop::solve::quadrature::for_each_node;
 use beamstop::structure::beam::{DimensionlessMode, Support};
@@ -207,7 +207,7 @@ fn b_kane_ryan_banerjee_spin_up() {
     assert!(diff < 1e-6 && tip_diff < 1e-6, "{diff:e} {tip_diff:e}");
 
     let mut zeroth = spec.clone();
-    zeroth.order = beamstop::rotating::spec::OrderSpec::Zeroth;
+    zeroth.order = beamstop::kinds::rotating::spec::OrderSpec::Zeroth;
     let mut sim = RotatingSimulation::from_spec(&zeroth, 0.0).unwrap();
     let mut t_div = None;
     for i in 1..=1500 {
@@ -327,7 +327,7 @@ fn rk4_first_contact(spec: &RotatingSpec, h_free: f64, h_contact: f64) -> (f64, 
 
 /// The first contact of a run: (onset, separation, peak force, state at
 /// separation, the run's stats then).
-fn engine_first_contact(spec: &RotatingSpec) -> (f64, f64, f64, DVector<f64>, beamstop::rotating::RotatingStats) {
+fn engine_first_contact(spec: &RotatingSpec) -> (f64, f64, f64, DVector<f64>, beamstop::kinds::rotating::RotatingStats) {
     let mut sim = RotatingSimulation::from_spec(spec, 0.0).unwrap();
     let mut onset = None;
     let dt = 1e-5;
@@ -1007,7 +1007,7 @@ fn l_very_fast_spin_stays_bounded() {
 /// at the end to 1e-8 of the beam's length.
 #[test]
 fn m_both_integrators_agree() {
-    use beamstop::rotating::stepper::Method;
+    use beamstop::kinds::rotating::stepper::Method;
     let run = |method: Method| {
         let mut spec = scene("rotating_beam");
         spec.solver.tolerance = 1e-10;

@@ -7,8 +7,8 @@ use std::f64::consts::PI;
 
 mod common;
 
-use beamstop::interface::ParamKey;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use common::{impacts, scene as load};
 
 #[test]

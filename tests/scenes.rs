@@ -4,7 +4,8 @@
 //! generator produces.
 
 use beamstop::package::FmiVersion;
-use beamstop::{Component, Scene};
+use beamstop::Component;
+use beamstop::kinds::modal::scene::Scene;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 

@@ -11,9 +11,9 @@ use std::f64::consts::{PI, SQRT_2};
 
 mod common;
 
-use beamstop::interface::ParamKey;
-use beamstop::scene::StructureSpec;
-use beamstop::{EventKind, Model, Scene, Simulation};
+use beamstop::kinds::modal::interface::ParamKey;
+use beamstop::kinds::modal::scene::StructureSpec;
+use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 
 fn pinned() -> Scene {
     common::scene("pinned_beam")
@@ -397,7 +397,7 @@ fn si_steel_beam_and_micro_cantilever_magnitudes() {
 /// `kappa` times the static stiffness `3 EI / L^3`.
 fn spring_stop(kappa: f64) -> Scene {
     let mut scene = common::scene("spring_stop_hard");
-    scene.stops[0].law = beamstop::scene::StopLaw::SpringDashpot(beamstop::contact::SpringDashpot { k: kappa * 1050.0, c: 0.0, method: Default::default(), transfer_damping: Default::default() });
+    scene.stops[0].law = beamstop::kinds::modal::scene::StopLaw::SpringDashpot(beamstop::contact::SpringDashpot { k: kappa * 1050.0, c: 0.0, method: Default::default(), transfer_damping: Default::default() });
     scene.solver.max_probes_per_step = Some(u64::MAX);
     scene
 }
@@ -428,7 +428,7 @@ fn compliant_grazing_contact() {
     // phases, energy constant.
     let mut scene = spring_stop(100.0);
     scene.loads.clear();
-    scene.damping = Some(beamstop::scene::Damping { zeta: Some(0.0), ..Default::default() });
+    scene.damping = Some(beamstop::kinds::modal::scene::Damping { zeta: Some(0.0), ..Default::default() });
     if let StructureSpec::Beam { modes, .. } = &mut scene.structure {
         *modes = 1;
     }
@@ -474,7 +474,7 @@ fn compliant_huge_and_tiny_steps() {
 /// DWZ's undamped law.
 fn hertz_stop(k: f64) -> Scene {
     let mut scene = common::scene("hertz_stop");
-    scene.stops[0].law = beamstop::scene::StopLaw::Hertz(beamstop::contact::Hertz {
+    scene.stops[0].law = beamstop::kinds::modal::scene::StopLaw::Hertz(beamstop::contact::Hertz {
         stiffness: k,
         damping_coefficient: 0.0,
         damping: beamstop::contact::HertzDamping::Linear,
@@ -512,7 +512,7 @@ fn hertz_grazing_contact() {
     // is 1e-8 N may split in two contacts at rounding level: at most two.)
     let mut scene = hertz_stop(1e10);
     scene.loads.clear();
-    scene.damping = Some(beamstop::scene::Damping { zeta: Some(0.0), ..Default::default() });
+    scene.damping = Some(beamstop::kinds::modal::scene::Damping { zeta: Some(0.0), ..Default::default() });
     if let StructureSpec::Beam { modes, .. } = &mut scene.structure {
         *modes = 1;
     }

@@ -1,5 +1,6 @@
-//! The kinds of simulation this library ships, registered here: the one
-//! place a kind is added ([`crate::kind::Registration`]). With the
+//! The kinds of simulation this library ships, each in a folder of its
+//! own (`modal`, `rotating`), registered here: the one place a kind is
+//! added ([`crate::kind::Registration`]). With the
 //! default feature `beam` off, a crate that builds an FMU of its own kind
 //! links the library without them (its FMU then carries only its kind).
 

@@ -2,7 +2,7 @@
 
 #![allow(dead_code)]
 
-use beamstop::{EventKind, Scene, Simulation};
+use beamstop::kinds::modal::{sim::EventKind, scene::Scene, sim::Simulation};
 
 /// A scene of `scenes/` by file stem.
 pub fn scene(name: &str) -> Scene {
@@ -23,7 +23,7 @@ pub fn impacts(sim: &mut Simulation) -> Vec<(f64, f64)> {
 
 /// Runs `model` from t = 0 through `times`, returning the modal state
 /// `[q; q']` at each and the simulation at the end.
-pub fn run_states(model: beamstop::Model, times: &[f64]) -> (Vec<nalgebra::DVector<f64>>, Simulation) {
+pub fn run_states(model: beamstop::kinds::modal::model::Model, times: &[f64]) -> (Vec<nalgebra::DVector<f64>>, Simulation) {
     let mut sim = Simulation::new(model, 0.0).unwrap();
     let mut out = Vec::new();
     for &t in times {

@@ -372,7 +372,7 @@ def reference_argument(pairs, label: str) -> str:
 def contact_frequency(model: dict) -> tuple[float, float]:
     """The highest frequency of the structure with the contact linearised at
     the deepest penetration of the fastest approach, `(5 m v0^2 / 4 K)^(2/5)`
-    with the point's effective mass `m = 1 / |w|^2` (as src/sim/integrated.rs
+    with the point's effective mass `m = 1 / |w|^2` (as src/kinds/modal/sim/integrated.rs
     estimates it): `(omega_max, depth)`."""
     w = np.array(model["w"])
     w2 = float(w @ w)

@@ -14,9 +14,9 @@
 
 use std::path::Path;
 
-use beamstop::interface;
-use beamstop::scene::{Scene, StructureSpec};
-use beamstop::{EventKind, Model, Simulation};
+use beamstop::kinds::modal::interface;
+use beamstop::kinds::modal::scene::{Scene, StructureSpec};
+use beamstop::kinds::modal::{sim::EventKind, model::Model, sim::Simulation};
 use serde::Deserialize;
 
 #[derive(Deserialize)]

@@ -14,12 +14,14 @@
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
 //!   outputs;
 //! - [`codec`]: the run's versioned encoding, replayed on decode;
-//! - [`interface`]: the scene's parameters, input and outputs.
+//! - [`interface`]: the scene's parameters, input and outputs;
+//! - `kind`: the contract's side ([`RotatingKind`], [`RotatingRun`]).
 //!
-//! Unlike the modal simulation ([`crate::sim`]), nothing here is closed
+//! Unlike the modal simulation ([`crate::kinds::modal::sim`]), nothing here is closed
 //! form: the rotating beam is nonlinear everywhere, so the whole motion is
 //! integrated, free flight included.
 
+mod kind;
 pub mod codec;
 pub mod events;
 pub mod interface;
@@ -33,3 +35,5 @@ pub use codec::ROTATING_STATE_VERSION;
 pub use model::{RotatingModel, SpinUp};
 pub use sim::{RotatingEvent, RotatingEventKind, RotatingSimulation, RotatingStats};
 pub use spec::RotatingSpec;
+
+pub use kind::{RotatingKind, RotatingRun};

@@ -47,7 +47,7 @@ use search::ProbeBuffers;
 use transfer::{active_geometries, phase_dynamics};
 
 use crate::contact::{Contact, Geometry};
-use crate::model::Model;
+use crate::kinds::modal::model::Model;
 use crate::solve::lti::CoupledSystem;
 use crate::solve::{FreeDynamics, FreeSegment, Functional, ModalState};
 

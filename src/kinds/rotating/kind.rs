@@ -1,4 +1,4 @@
-//! The rotating hub beam as a kind of simulation ([`crate::rotating`]):
+//! The rotating hub beam as a kind of simulation ([`crate::kinds::rotating`]):
 //! scene files with a `beam` and no `structure`, integrated throughout.
 
 use std::sync::{Arc, OnceLock};
@@ -7,8 +7,8 @@ use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
 use crate::kind::{EventClass, EventRecord, Kind, Reached, Run, Scene, SimError, Work};
-use crate::rotating::interface::{self, RotatingOutput};
-use crate::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
+use crate::kinds::rotating::interface::{self, RotatingOutput};
+use crate::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use crate::variables::{Experiment, Value, Variables};
 
 pub struct RotatingKind;

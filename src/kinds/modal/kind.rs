@@ -1,5 +1,5 @@
 //! The modal structures (beams, chains) with stops as a kind of
-//! simulation ([`crate::sim`]): scene files with a `structure`, exact
+//! simulation ([`crate::kinds::modal::sim`]): scene files with a `structure`, exact
 //! between events.
 
 use std::sync::{Arc, OnceLock};
@@ -8,11 +8,11 @@ use nalgebra::{DMatrix, DVector};
 use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
-use crate::interface::{self, OutputKey};
+use crate::kinds::modal::interface::{self, OutputKey};
 use crate::kind::{Clearance, EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Work};
-use crate::model::Model;
-use crate::readout;
-use crate::sim::{EventKind, Simulation};
+use crate::kinds::modal::model::Model;
+use crate::kinds::modal::readout;
+use crate::kinds::modal::sim::{EventKind, Simulation};
 use crate::variables::{Experiment, Value, Variables};
 
 pub struct ModalKind;
@@ -27,7 +27,7 @@ impl Kind for ModalKind {
     }
 
     fn load(&self, scene: &Json) -> Result<Box<dyn Scene>, String> {
-        let scene: crate::scene::Scene = serde_json::from_value(scene.clone()).map_err(|e| format!("scene: {e}"))?;
+        let scene: crate::kinds::modal::scene::Scene = serde_json::from_value(scene.clone()).map_err(|e| format!("scene: {e}"))?;
         scene.validate().map_err(|e| e.0)?;
         let outputs = interface::outputs(&scene).into_iter().map(|(key, _)| key).collect();
         Ok(Box::new(ModalScene { scene, outputs, model: OnceLock::new() }))
@@ -36,7 +36,7 @@ impl Kind for ModalKind {
 
 #[derive(Debug)]
 struct ModalScene {
-    scene: crate::scene::Scene,
+    scene: crate::kinds::modal::scene::Scene,
     /// What each output (in the variables' order) reads.
     outputs: Arc<[OutputKey]>,
     /// The model, built once for every run of this scene (a master that

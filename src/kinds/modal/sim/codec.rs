@@ -7,7 +7,7 @@
 //! A state that fails any check is refused with a message naming the field.
 
 use crate::codec::{Reader, Writer};
-use crate::model::Model;
+use crate::kinds::modal::model::Model;
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::free::ModalJet;
 use crate::solve::functional::NOISE;

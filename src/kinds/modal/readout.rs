@@ -1,8 +1,8 @@
-//! The outputs' values: a scene's outputs (`crate::interface`) read from a
+//! The outputs' values: a scene's outputs (`crate::kinds::modal::interface`) read from a
 //! simulation.
 
-use crate::interface::OutputKey;
-use crate::sim::Simulation;
+use crate::kinds::modal::interface::OutputKey;
+use crate::kinds::modal::sim::Simulation;
 pub use crate::variables::Value;
 
 /// Reads an output from a simulation at its current time.

@@ -283,9 +283,9 @@ impl Simulation {
 
 #[cfg(test)]
 mod tests {
-    use crate::model::Model;
-    use crate::scene::Scene;
-    use crate::sim::{EventKind, Simulation};
+    use crate::kinds::modal::model::Model;
+    use crate::kinds::modal::scene::Scene;
+    use crate::kinds::modal::sim::{EventKind, Simulation};
 
     /// The stop's impulse, exact from the closed forms segment by segment,
     /// against the momentum balance of the one mode of a cantilever thrown

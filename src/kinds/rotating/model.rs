@@ -161,7 +161,7 @@ impl RotatingModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rotating::spec::RotatingSpec;
+    use crate::kinds::rotating::spec::RotatingSpec;
 
     fn spec(order: &str) -> RotatingSpec {
         RotatingSpec::from_json(&format!(

@@ -1,7 +1,7 @@
 //! What a run reports: the events it met ([`Event`], [`EventKind`]) and
 //! their one-line descriptions for a log.
 
-use crate::model::Model;
+use crate::kinds::modal::model::Model;
 
 /// What happened at an event.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,7 +64,7 @@ impl Event {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
+    use crate::kinds::modal::scene::Scene;
 
     /// Every kind of event names its own stop, by index and, in the log
     /// line, by the name the scene gives it (two stops, the event at the

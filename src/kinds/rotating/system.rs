@@ -310,7 +310,7 @@ impl ImplicitSystem for Phase {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rotating::spec::RotatingSpec;
+    use crate::kinds::rotating::spec::RotatingSpec;
 
     fn model(hub: &str, damping: &str) -> Arc<RotatingModel> {
         let text = format!(

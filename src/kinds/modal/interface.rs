@@ -6,7 +6,7 @@
 //! scalar variables; nothing here knows about FMI.
 
 use crate::contact::StopOutput;
-use crate::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, SceneError, Units};
+use crate::kinds::modal::scene::{ActuatorKind, Load, Names, Quantity, Range, Scene, SceneError, Units};
 pub use crate::variables::{Input, Output, OutputType, Parameter, Unit};
 
 /// A quantity's unit in the scene's unit system (everything is "1" scaled).
@@ -125,7 +125,7 @@ fn mode_name(names: &Names, key: &str, default: &str, j: usize) -> String {
 /// the rest, anywhere.
 fn span(scene: &Scene, stop: bool) -> Range {
     let length = scene.section().ok().flatten().map_or(1.0, |s| s.length);
-    let free_right = matches!(scene.structure, crate::scene::StructureSpec::Beam { support: crate::scene::SupportKind::ClampedFree, .. });
+    let free_right = matches!(scene.structure, crate::kinds::modal::scene::StructureSpec::Beam { support: crate::kinds::modal::scene::SupportKind::ClampedFree, .. });
     if stop {
         Range { min: 0.0, max: length, min_open: true, max_open: !free_right }
     } else {
@@ -169,7 +169,7 @@ pub const MAX_DISPLACEMENT_RATIO: f64 = 1e3;
 impl Limits {
     pub fn of(scene: &Scene) -> Limits {
         match (&scene.structure, scene.section().ok().flatten()) {
-            (crate::scene::StructureSpec::Chain { masses, m, k, .. }, _) => {
+            (crate::kinds::modal::scene::StructureSpec::Chain { masses, m, k, .. }, _) => {
                 let w = 2.0 * (k / m).sqrt();
                 Limits {
                     displacement: MAX_DISPLACEMENT_RATIO,
@@ -180,7 +180,7 @@ impl Limits {
                 }
             }
             (_, section) => {
-                let s = section.unwrap_or(crate::scene::Section { length: 1.0, mass_per_length: 1.0, bending_stiffness: 1.0 });
+                let s = section.unwrap_or(crate::kinds::modal::scene::Section { length: 1.0, mass_per_length: 1.0, bending_stiffness: 1.0 });
                 let c = (s.bending_stiffness / (s.mass_per_length * s.length.powi(4))).sqrt();
                 let n = scene.n_modes() as f64;
                 Limits {
@@ -415,7 +415,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
             "solver.integration_tolerance".into(),
             "Relative tolerance of the integrated contact phases (closed-form phases are exact regardless); smaller is more accurate and slower".into(),
             Unit::One,
-            crate::scene::INTEGRATION_TOLERANCE_RANGE,
+            crate::kinds::modal::scene::INTEGRATION_TOLERANCE_RANGE,
             false,
         );
     }

@@ -473,7 +473,7 @@ impl Scene {
     }
 
     /// Structural validation: the parts of a scene that fit together (the
-    /// values' ranges are checked by `Scene::validate`, in `crate::interface`).
+    /// values' ranges are checked by `Scene::validate`, in `crate::kinds::modal::interface`).
     pub fn validate_structure(&self) -> Result<(), SceneError> {
         if self.name.is_empty()
             || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')

@@ -12,8 +12,8 @@ use super::phases::Segment;
 use super::state::SimState;
 use super::{SimError, Simulation};
 use crate::contact::{Contact, Geometry};
-use crate::model::Model;
-use crate::scene::ContactMethod;
+use crate::kinds::modal::model::Model;
+use crate::kinds::modal::scene::ContactMethod;
 use crate::solve::lti::{CoupledSegment, CoupledSystem};
 use crate::solve::{FreeDynamics, ModalState};
 

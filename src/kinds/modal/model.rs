@@ -7,7 +7,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
+use crate::kinds::modal::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Contact, Geometry, Law, PhaseTerm};
 use crate::solve::lti::SystemCache;
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
@@ -291,7 +291,7 @@ impl Model {
             initial,
             event_tolerance: scene.solver.event_tolerance,
             integration_tolerance: scene.solver.integration_tolerance,
-            speed_limit: crate::interface::Limits::of(scene).velocity_range().max,
+            speed_limit: crate::kinds::modal::interface::Limits::of(scene).velocity_range().max,
             max_events_per_step: scene.solver.max_events_per_step,
             max_probes_per_step: scene.solver.max_probes_per_step.unwrap_or_else(|| default_probe_budget(n)),
             energy_balance: scene.outputs.energy_balance,

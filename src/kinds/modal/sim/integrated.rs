@@ -329,7 +329,7 @@ impl Simulation {
             }
             let super::Segment::Integrated(seg) = &mut self.segment else { unreachable!("an integrated segment") };
             if seg.step.as_ref().map_or(true, |s| s.1 <= scan) {
-                let weight = crate::model::INTEGRATED_STEP_WEIGHT;
+                let weight = crate::kinds::modal::model::INTEGRATED_STEP_WEIGHT;
                 if *probes + weight > max_probes {
                     return Err(SimError::TooMuchWork { time: scan, work: *probes, cap: "solver.max_probes_per_step" });
                 }
