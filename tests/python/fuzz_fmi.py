@@ -8,15 +8,28 @@ in CI). `--fmi 3` fuzzes an FMI 3.0 FMU (target/fmu3/*.fmu) through its
 fmi3 functions instead: tests/python/fuzz_fmi3.py, which shares this
 file's helpers. Each run prints a JSON summary: calls made, corrupted states tried,
 the longest single call, and every broken promise with the seed and call
-index that reproduce it. Promises checked after every call:
+index that reproduce it. Parameter and input values are drawn over the whole
+admitted range too (`admitted_value`: the ends, the start value, log-uniform
+magnitudes inside wide ranges, uniform). Promises checked after every call:
 
-- the return is a legal fmi2Status, and the call returns within LIMIT s;
+- the return is a legal fmi2Status; the call returns within LIMIT s (a hang
+  detector only: the work bound is the next promise);
+- every fmi2DoStep that runs logs, with the category logAll on (the fuzzer
+  turns it on in every instance), one line `fmi2DoStep: work W of C <unit>
+  (the step's cap)` with W <= C: the work the FMU counted against its cap
+  (WORK_LINE_REQUIRED = False, or --work-line optional, tolerates an FMU
+  that does not log it yet);
 - outputs read with fmi2OK are finite, and no stop is penetrated beyond
   rounding (its displacement against its gap parameter and side);
 - a call refused for a bad argument (fmi2Error while the instance was
   stepping) leaves the instance usable: a following fmi2GetReal succeeds;
 - a corrupted serialized state is refused, or the state it gives is one the
-  model can be in (the same output checks, then a step that returns).
+  model can be in (the same output checks, then a step that returns);
+- rollback (`rollback`, also right after a set of an input or a tunable
+  parameter): every state the FMU serializes deserializes into another
+  instance, which then takes the same fmi2DoStep with the same status and
+  the same outputs bit for bit; restored into the instance it came from
+  (step, restore, step again), the step repeats bit for bit too.
 A crash kills this process and a hang never finishes: the caller (the test)
 runs it in a subprocess with a timeout and reports both.
 """
@@ -29,6 +42,7 @@ import ctypes
 import json
 import math
 import random
+import re
 import struct
 import sys
 import tempfile
@@ -40,9 +54,39 @@ from pathlib import Path
 from fmpy import read_model_description
 from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
-LIMIT = 10.0  # seconds: the longest a single call may take
+LIMIT = 120.0  # seconds: a hang detector only (the work a step does is bounded by its logged cap)
+# The line every fmi2DoStep / fmi3DoStep logs (category logAll) after its work.
+WORK_LINE = re.compile(r"(fmi[23]DoStep): work (\d+) of (\d+) (.+) \(the step's cap\)")
+# Until every FMU logs it: False (or --work-line optional) accepts a DoStep without the line.
+WORK_LINE_REQUIRED = True
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = range(6)
 STEP_COMPLETE, STEP_FAILED, READABLE = "stepComplete", "stepFailed", ("init", "stepComplete", "stepFailed", "terminated")
+
+
+def admitted_value(v, rng: random.Random, kinds=("lo", "hi", "start", "uniform", "log", "log")) -> float:
+    """A value over the variable's whole admitted range [min, max]: an end,
+    its start value, uniform, or log-uniform: over [min, max] when both are
+    positive and span more than 2 decades, else magnitudes over the 12
+    decades below the largest bound, with the range's sign(s) (a tolerance of
+    1e-6 in [1e-13, 1e-3], a damping of 1 in [0, 1e8], an initial coordinate
+    of 1 in [-500, 500] are all drawn often)."""
+    lo, hi = float(v.min), float(v.max)
+    kind = rng.choice(kinds)
+    if kind == "lo":
+        return lo
+    if kind == "hi":
+        return hi
+    if kind == "start" and v.start is not None:
+        return float(v.start)
+    if kind in ("log", "start"):
+        if lo > 0 and hi / lo > 100:
+            return min(hi, max(lo, math.exp(rng.uniform(math.log(lo), math.log(hi)))))
+        m = max(abs(lo), abs(hi))
+        if m > 0 and (lo >= 0 or hi <= 0 or m > 100):
+            x = math.exp(rng.uniform(math.log(m) - 12 * math.log(10), math.log(m)))
+            sign = 1.0 if lo >= 0 else -1.0 if hi <= 0 else rng.choice([-1.0, 1.0])
+            return min(hi, max(lo, sign * x))
+    return rng.uniform(lo, hi)
 
 
 class Harness:
@@ -60,9 +104,15 @@ class Harness:
         self.lib = ctypes.CDLL(str(self.dir / "binaries" / "linux64" / f"{ident}.so"))
         self._types()
         self.messages: collections.deque[str] = collections.deque(maxlen=200)
+        self.work_lines: list[tuple] = []  # (function, work, cap, unit) of every work line logged
+        self.work_required = WORK_LINE_REQUIRED
 
         def log(env, name, status, category, message):
-            self.messages.append(message.decode("utf-8", "replace"))
+            m = message.decode("utf-8", "replace")
+            self.messages.append(m)
+            w = WORK_LINE.search(m)
+            if w:
+                self.work_lines.append((w.group(1), int(w.group(2)), int(w.group(3)), w.group(4)))
 
         self.callbacks = fmi2CallbackFunctions()
         self.callbacks.logger = fmi2CallbackLoggerTYPE(log)
@@ -81,6 +131,11 @@ class Harness:
         self.states_tried = 0
         self.longest = (0.0, "")
         self.broken: list[str] = []
+        self.log_all = False  # whether the instance logs the category logAll
+        self.twin = None  # a second instance, for states restored across instances
+        ex = self.md.defaultExperiment
+        self.h_experiment = float(ex.stepSize) if ex is not None and ex.stepSize is not None else 0.01
+        self.counts = collections.Counter()
 
     # ---------------------------------------------------------------- setup
     def _types(self):
@@ -153,6 +208,9 @@ class Harness:
             pool += [lo, hi, lo - abs(lo) * 1e-12 - 1e-300, hi + abs(hi) * 1e-12 + 1e-300, self.rng.uniform(lo, hi)] * 3
         if v is not None and v.start is not None:
             pool += [float(v.start)] * 3
+        if v is not None and v.min is not None and v.max is not None:
+            # the whole admitted range: ends, log-uniform inside wide ranges, uniform
+            pool += [admitted_value(v, self.rng) for _ in range(10)]
         return self.rng.choice(pool)
 
     def vr(self, pool):
@@ -166,6 +224,31 @@ class Harness:
         assert self.c, "fmi2Instantiate returned NULL: " + " | ".join(list(self.messages)[-3:])
         self.state = "instantiated"
         self.time = 0.0
+        self.log_all = self.logging(self.c, True, [b"logAll"]) == OK
+
+    def logging(self, c, on: bool, categories: list[bytes]) -> int:
+        arr = (c_char_p * max(1, len(categories)))(*categories) if categories else None
+        return self.call("fmi2SetDebugLogging", self.lib.fmi2SetDebugLogging, c, on, len(categories), arr)
+
+    def work_check(self, what: str, n_lines: int, r: int, log_all: bool | None = None):
+        """The work line(s) a DoStep logged since `n_lines` (len(self.work_lines) before it):
+        one, with work <= cap, for a step that ran (OK, Warning, Discard)."""
+        new = self.work_lines[n_lines:]
+        for f, work, cap, unit in new:
+            self.counts["work_lines"] += 1
+            if work > cap:
+                self.report(f"{what}: work {work} of {cap} {unit} exceeds the step's cap")
+        ran = r in (OK, WARNING, DISCARD)
+        if ran and (self.log_all if log_all is None else log_all):
+            if not new:
+                self.counts["no_work_line"] += 1
+                if self.work_required:
+                    self.report(f"{what} returned {r} without a work line (logAll on): {' | '.join(list(self.messages)[-2:])}")
+            elif len(new) > 1:
+                self.report(f"{what} logged {len(new)} work lines, not one")
+
+    def report(self, what: str):
+        self.broken.append(f"seed {self.seed} call {self.calls}: {what}")
 
     # ---------------------------------------------------------------- checks
     def check_outputs(self, where: str):
@@ -207,8 +290,8 @@ class Harness:
         L, c = self.lib, self.c
         op = rng.choices(
             ["setup", "enter", "exit", "set", "get", "geti", "step", "step", "step", "getstate", "setstate",
-             "serialize", "reset", "terminate", "cancel", "status", "logging", "free"],
-            weights=[3, 3, 3, 12, 6, 2, 12, 12, 12, 3, 3, 3, 1, 1, 1, 2, 1, 0.3])[0]
+             "serialize", "reset", "terminate", "cancel", "status", "logging", "free", "rollback"],
+            weights=[3, 3, 3, 12, 6, 2, 12, 12, 12, 3, 3, 3, 1, 1, 1, 2, 1, 0.3, 4])[0]
         if op == "setup":
             start = rng.choice([0.0, 0.0, 0.0, 1.5, -3.0, 1e6, 1e15, math.nan, math.inf])
             stop_defined = rng.random() < 0.5
@@ -233,6 +316,8 @@ class Harness:
                 self.check_outputs(f"refused fmi2SetReal {vrs}={vals}")
             elif r == OK:
                 self.check_outputs(f"fmi2SetReal {vrs}={vals}")
+                if self.state == STEP_COMPLETE and rng.random() < 0.3:
+                    self.rollback(f"right after fmi2SetReal {vrs}={vals}")
         elif op == "get":
             n = rng.choice([1, 2, 5])
             vrs = [self.vr(self.reals) for _ in range(n)]
@@ -244,9 +329,11 @@ class Harness:
             if self.bools:
                 self.call("fmi2GetBoolean", L.fmi2GetBoolean, c, (c_uint * 1)(self.vr(self.bools)), 1, (c_int * 1)())
         elif op == "step":
-            h = rng.choice([1e-3, 1e-2, 1e-2, 0.1, 1.0, 1e-12, 1e-300, 50.0, 1e3, 0.0, -1.0, math.nan, math.inf])
+            h = rng.choice([1e-3, 1e-2, 1e-2, 0.1, 1.0, 1e-12, 1e-300, 5e-324, 50.0, 1e3, 0.0, -1.0, math.nan, math.inf])
             t = self.time if rng.random() < 0.9 else rng.choice([self.time + 1.0, math.nan, -1.0])
+            n_lines = len(self.work_lines)
             r = self.call(f"fmi2DoStep(t={t}, h={h})", L.fmi2DoStep, c, t, h, 1)
+            self.work_check(f"fmi2DoStep(t={t}, h={h})", n_lines, r)
             if r == OK:
                 self.time = t + h
                 self.check_outputs(f"fmi2DoStep(h={h})")
@@ -284,14 +371,115 @@ class Harness:
             self.call("fmi2GetBooleanStatus", L.fmi2GetBooleanStatus, c, rng.randrange(-1, 6), byref(c_int()))
         elif op == "logging":
             cats = [b"logEvents", b"logAll", b"nonsense"][: rng.randrange(0, 4)]
-            arr = (c_char_p * max(1, len(cats)))(*cats) if cats else None
-            self.call("fmi2SetDebugLogging", L.fmi2SetDebugLogging, c, rng.random() < 0.5, len(cats), arr)
+            on = rng.random() < 0.5
+            if self.logging(c, on, cats) == OK and (not cats or b"logAll" in cats):
+                self.log_all = on
+            if not self.log_all and rng.random() < 0.7:
+                self.log_all = self.logging(c, True, [b"logAll"]) == OK  # mostly on: the work check needs it
+        elif op == "rollback":
+            self.rollback("")
         elif op == "free":
-            for key in list(self.snapshots):
-                L.fmi2FreeFMUstate(c, byref(c_void_p(key)))
-            self.snapshots.clear()
-            self.call("fmi2FreeInstance", L.fmi2FreeInstance, c)
-            self.c = None
+            self.free()
+
+    def free(self):
+        L, c = self.lib, self.c
+        for key in list(self.snapshots):
+            L.fmi2FreeFMUstate(c, byref(c_void_p(key)))
+        self.snapshots.clear()
+        self.call("fmi2FreeInstance", L.fmi2FreeInstance, c)
+        self.c = None
+        if self.twin is not None:
+            L.fmi2FreeInstance(self.twin)
+            self.twin = None
+
+    # ---------------------------------------------------------------- rollback
+    def outputs_bits(self, c) -> bytes:
+        """Every output (Real, Integer, Boolean) as raw bytes: compared bit for bit."""
+        L = self.lib
+        out = b""
+        for pool, get, ctype in ((self.outputs, L.fmi2GetReal, c_double),
+                                 ([v for v in self.ints if v.causality == "output"], L.fmi2GetInteger, c_int),
+                                 ([v for v in self.bools if v.causality == "output"], L.fmi2GetBoolean, c_int)):
+            if pool:
+                vals = (ctype * len(pool))()
+                r = get(c, (c_uint * len(pool))(*[v.valueReference for v in pool]), len(pool), vals)
+                out += bytes([r]) + bytes(vals)
+        return out
+
+    def rollback_step(self, c, t: float, h: float, who: str, log_all: bool):
+        """fmi2DoStep(t, h) on c: (status, lastSuccessfulTime on Discard, outputs)."""
+        n_lines = len(self.work_lines)
+        r = self.call(f"fmi2DoStep(t={t}, h={h}) ({who})", self.lib.fmi2DoStep, c, t, h, 0)
+        self.work_check(f"fmi2DoStep(t={t}, h={h}) ({who})", n_lines, r, log_all)
+        reached = c_double(math.nan)
+        if r == DISCARD:
+            self.lib.fmi2GetRealStatus(c, 2, byref(reached))
+        return r, reached.value.hex(), self.outputs_bits(c) if r in (OK, WARNING, DISCARD) else b""
+
+    def restore_into(self, c, data: bytes) -> tuple[int, str]:
+        L = self.lib
+        s = c_void_p()
+        r = self.call("fmi2DeSerializeFMUstate(rollback)", L.fmi2DeSerializeFMUstate, c, data, len(data), byref(s))
+        if r != OK:
+            return r, "fmi2DeSerializeFMUstate: " + " | ".join(list(self.messages)[-1:])
+        r = self.call("fmi2SetFMUstate(rollback)", L.fmi2SetFMUstate, c, s)
+        L.fmi2FreeFMUstate(c, byref(s))
+        return r, "" if r == OK else "fmi2SetFMUstate: " + " | ".join(list(self.messages)[-1:])
+
+    def rollback(self, why: str):
+        """A master's rollback: save (get + serialize), step; the state
+        deserialized into a second instance takes the same step, and restored
+        into this one, steps again: the same status, the same outputs, bit for bit."""
+        if self.state != STEP_COMPLETE or self.c is None or not math.isfinite(self.time):
+            return
+        L, rng = self.lib, self.rng
+        data = self.serialized()
+        if data is None:
+            self.report(f"fmi2GetFMUstate/fmi2SerializeFMUstate failed in stepComplete {why}")
+            return
+        self.counts["rollbacks"] += 1
+        t = self.time
+        h = rng.choice([self.h_experiment, 10 * self.h_experiment, 1e-3, 1e-2])
+        where = f"state saved at t = {t!r}{' ' + why if why else ''}, then fmi2DoStep(h={h})"
+        first = self.rollback_step(self.c, t, h, "original", self.log_all)
+        if self.twin is None:
+            self.twin = L.fmi2Instantiate(b"twin", 1, self.md.guid.encode(), (self.dir / "resources").as_uri().encode(),
+                                          byref(self.callbacks), 0, 0)
+            self.twin_log_all = self.logging(self.twin, True, [b"logAll"]) == OK
+        r, msg = self.restore_into(self.twin, data)
+        if r != OK and "instance state Error" in msg:
+            # the instance was in the Error state (a step that failed), which no instance restores, by design
+            self.counts["error_state_saved"] += 1
+            self.state = None
+            return
+        if r != OK:
+            self.report(f"a state the FMU serialized was refused by another instance ({where}): {msg}")
+        else:
+            self.counts["restored_elsewhere"] += 1
+            again = self.rollback_step(self.twin, t, h, "another instance", self.twin_log_all)
+            if again != first:
+                self.report(f"restored in another instance, the step differs ({where}): status {first[0]} vs {again[0]}, "
+                            f"outputs {'differ' if first[2] != again[2] else 'equal'}")
+        if rng.random() < 0.5:
+            # step, restore, step again: the same instance
+            r, msg = self.restore_into(self.c, data)
+            if r != OK:
+                self.report(f"a state the FMU serialized was refused by its own instance ({where}): {msg}")
+                self.state = None
+                return
+            self.counts["restored_here"] += 1
+            again = self.rollback_step(self.c, t, h, "rolled back", self.log_all)
+            if again != first:
+                self.report(f"rolled back, the step differs ({where}): status {first[0]} vs {again[0]}, "
+                            f"outputs {'differ' if first[2] != again[2] else 'equal'}")
+        r = first[0]
+        if r == OK:
+            self.time = t + h
+            self.check_outputs(f"fmi2DoStep(h={h}) after a rollback")
+        elif r == DISCARD:
+            self.state = STEP_FAILED
+        elif r != WARNING:
+            self.state = None
 
     def serialized(self):
         L, c = self.lib, self.c
@@ -351,7 +539,9 @@ class Harness:
             if L.fmi2GetReal(c, vrs, len(self.outputs), outs) == OK:
                 self.state = STEP_COMPLETE
                 self.check_outputs("restored corrupted state")
+                n_lines = len(self.work_lines)
                 r = self.call("fmi2DoStep(after corrupted)", L.fmi2DoStep, c, self.time, 0.01, 1)
+                self.work_check("fmi2DoStep(after corrupted)", n_lines, r)
                 if r == OK:
                     self.time += 0.01
                     self.check_outputs("step after a restored corrupted state")
@@ -370,11 +560,10 @@ class Harness:
         while self.calls < calls:
             self.move()
         if self.c is not None:
-            for key in list(self.snapshots):
-                self.lib.fmi2FreeFMUstate(self.c, byref(c_void_p(key)))
-            self.lib.fmi2FreeInstance(self.c)
+            self.free()
         return {"fmu": self.md.coSimulation.modelIdentifier, "seed": self.seed, "calls": self.calls,
                 "states": self.states_tried, "longest_s": self.longest[0], "longest_call": self.longest[1],
+                "counts": dict(self.counts), "work_line_required": self.work_required,
                 "broken": self.broken[:20], "n_broken": len(self.broken)}
 
 
@@ -384,13 +573,17 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--calls", type=int, default=10000)
     ap.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="the FMI version of the FMU (default 2)")
+    ap.add_argument("--work-line", choices=("required", "optional"), default="required" if WORK_LINE_REQUIRED else "optional",
+                    help="whether every DoStep that runs must log its work line (logAll)")
     a = ap.parse_args()
     if a.fmi == 3:
         from fuzz_fmi3 import Harness3
 
-        print(json.dumps(Harness3(a.fmu, a.seed).run(a.calls)))
+        h = Harness3(a.fmu, a.seed)
     else:
-        print(json.dumps(Harness(a.fmu, a.seed).run(a.calls)))
+        h = Harness(a.fmu, a.seed)
+    h.work_required = a.work_line == "required"
+    print(json.dumps(h.run(a.calls)))
 
 
 if __name__ == "__main__":

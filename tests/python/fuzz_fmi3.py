@@ -29,7 +29,22 @@ checked after every call, as for FMI 2.0:
 - a corrupted serialized state is refused, or the state it gives is one the
   model can be in (the same output checks, no event mode in an instance
   instantiated without it, then a step that returns), and the true state
-  is accepted again.
+  is accepted again;
+- every fmi3DoStep that runs logs its work line (logAll) with work <= cap,
+  as in fuzz_fmi.py (WORK_LINE_REQUIRED);
+- rollback (`rollback`, also right after a set): a state saved in step
+  mode, in event mode or with an event pending is deserialized into another
+  instance, made with the same flags or with other eventModeUsed /
+  earlyReturnAllowed; with the same flags it takes the same calls (the
+  event-mode updates, then the same fmi3DoStep) with the same results bit
+  for bit; with other flags it continues as a master with those flags would
+  (no event-mode call without eventModeUsed) and, where neither DoStep
+  met an event, gives the same outputs bit for bit. It may refuse the state
+  (fmi3Error with a message) only if the state was saved in event mode or
+  with an event pending and the instance has no eventModeUsed. Restored
+  into its own instance (step, restore, step again) the calls repeat bit
+  for bit. (The intermediate-update callback asks for every early return
+  during these steps, which is what an instance without a callback gets.)
 A crash kills this process and a hang never finishes: the caller (the test)
 runs it in a subprocess with a timeout and reports both.
 """
@@ -50,7 +65,7 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from fuzz_fmi import DISCARD, ERROR, FATAL, OK, WARNING, Harness
+from fuzz_fmi import DISCARD, ERROR, FATAL, OK, WARNING, WORK_LINE, WORK_LINE_REQUIRED, Harness
 
 LOG_CALLBACK = CFUNCTYPE(None, c_void_p, c_int, c_char_p, c_char_p)
 INTERMEDIATE_CALLBACK = CFUNCTYPE(None, c_void_p, c_double, c_uint8, c_uint8, c_uint8, c_uint8, POINTER(c_uint8),
@@ -107,10 +122,16 @@ class Harness3(Harness):
         self.messages: collections.deque[str] = collections.deque(maxlen=200)
 
         self.n_messages = 0
+        self.work_lines: list[tuple] = []  # (function, work, cap, unit) of every work line logged
+        self.work_required = WORK_LINE_REQUIRED
 
         def log(env, status, category, message):
             self.n_messages += 1
-            self.messages.append(message.decode("utf-8", "replace") if message is not None else "")
+            m = message.decode("utf-8", "replace") if message is not None else ""
+            self.messages.append(m)
+            w = WORK_LINE.search(m)
+            if w:
+                self.work_lines.append((w.group(1), int(w.group(2)), int(w.group(3)), w.group(4)))
 
         self.log_callback = LOG_CALLBACK(log)
         self.intermediate_callback = INTERMEDIATE_CALLBACK(self._intermediate)
@@ -140,6 +161,13 @@ class Harness3(Harness):
         self.counts = collections.Counter()
         self.recent: collections.deque[str] = collections.deque(maxlen=25)  # the latest calls, for reports
         self.first_trace: list[str] = []
+        self.log_all = False  # whether the instance logs the category logAll
+        self.twins: dict[tuple, int] = {}  # (eventModeUsed, earlyReturnAllowed) -> an instance for restores
+        self.pending_event = False  # a DoStep asked for event handling that has not been made (None: unknown)
+        self.snap_pending: dict[int, object] = {}
+        self.forced_requests = False  # the callback asks for every early return (rollback steps)
+        ex = self.md.defaultExperiment
+        self.h_experiment = float(ex.stepSize) if ex is not None and ex.stepSize is not None else 0.01
 
     # ---------------------------------------------------------------- setup
     def _types(self):
@@ -242,7 +270,7 @@ class Harness3(Harness):
                 r = self.lib.fmi3EnterEventMode(self.c)
                 if r != ERROR:
                     self.report(f"fmi3EnterEventMode from inside intermediateUpdate returned {r}")
-            want = self.rng.random() < self.options["request"]
+            want = self.forced_requests or self.rng.random() < self.options["request"]
             requested[0] = 1 if want else 0
             requested_time[0] = t
         except Exception as e:  # never let an exception cross into the FMU (ctypes would print it)
@@ -289,6 +317,12 @@ class Harness3(Harness):
         self.state = INSTANTIATED
         self.time = 0.0
         self.stuck = 0
+        self.pending_event = False
+        self.log_all = self.logging(self.c, 1, [b"logAll"]) == OK
+
+    def logging(self, c, on: int, categories: list[bytes]) -> int:
+        arr = (c_char_p * max(1, len(categories)))(*categories) if categories else None
+        return self.call("fmi3SetDebugLogging", self.lib.fmi3SetDebugLogging, c, on, len(categories), arr)
 
     # ---------------------------------------------------------------- reads
     def get(self, kind: str, vrs: list[int], label: str | None = None, raw: bool = False):
@@ -383,6 +417,7 @@ class Harness3(Harness):
             self.report("fmi3UpdateDiscreteStates still needs an update after 10 calls")
         if rng.random() < 0.95 and self.fmi("fmi3EnterStepMode", self.c) == OK:
             self.state = STEP
+            self.pending_event = False
 
     def do_step(self, t: float, h: float, label: str):
         L, c = self.lib, self.c
@@ -390,12 +425,15 @@ class Harness3(Harness):
         lst = c_double(math.nan)
         self.stepping = (t, t + h) if math.isfinite(t) and math.isfinite(h) else (t, t)
         state_before, time_before = self.state, self.time
+        n_lines = len(self.work_lines)
         try:
             r = self.fmi("fmi3DoStep", c, t, h, self.flag(), byref(event), byref(terminate), byref(early), byref(lst),
                          label=label)
         finally:
             self.stepping = None
+        self.work_check(label, n_lines, r)
         if r == OK:
+            self.pending_event = bool(event.value) and bool(self.options.get("event"))
             self.state = STEP if self.state is None else self.state
             if event.value not in (0, 1) or terminate.value not in (0, 1) or early.value not in (0, 1):
                 self.report(f"{label}: output flags not C bools: {event.value}, {terminate.value}, {early.value}")
@@ -449,8 +487,8 @@ class Harness3(Harness):
         op = rng.choice(PREFERRED[self.state]) if self.state in PREFERRED and rng.random() < 0.5 else rng.choices(
             ["enter", "exit", "set", "seti", "get", "geti", "step", "step", "step", "eventmode", "update",
              "stepmode", "getstate", "setstate", "freestate", "serialize", "reset", "terminate", "absent", "logging",
-             "free"],
-            weights=[3, 3, 12, 2, 6, 3, 12, 12, 12, 2, 2, 2, 3, 3, 1, 3, 1, 1, 1, 1, 0.3])[0]
+             "free", "rollback"],
+            weights=[3, 3, 12, 2, 6, 3, 12, 12, 12, 2, 2, 2, 3, 3, 1, 3, 1, 1, 1, 1, 0.3, 4])[0]
         if op == "enter":
             # (far start times are rarer than in fuzz_fmi.py: this fuzzer initialises more
             # often, and a run built at t = 1e15 takes most of a second)
@@ -464,6 +502,7 @@ class Harness3(Harness):
         elif op == "exit":
             if self.fmi("fmi3ExitInitializationMode", c) == OK:
                 self.state = EVENT if self.options["event"] else STEP
+                self.pending_event = False
                 self.check_outputs("fmi3ExitInitializationMode")
                 if self.state == EVENT and rng.random() < 0.8:
                     self.event_protocol()
@@ -481,6 +520,8 @@ class Harness3(Harness):
             elif r == OK and (self.state != INIT or rng.random() < 0.25):
                 # (in InitializationMode each read after a change builds the run: slow at a far start time)
                 self.check_outputs(f"fmi3SetFloat64 {vrs}={vals}")
+            if r == OK and self.state in (STEP, EVENT) and rng.random() < 0.3:
+                self.rollback(f"right after fmi3SetFloat64({vrs}={vals})")
         elif op == "seti":
             # No Int32 or Boolean parameter or input exists: every set is refused.
             if rng.random() < 0.5:
@@ -511,7 +552,7 @@ class Harness3(Harness):
                 if r == OK and b not in (0, 1):
                     self.report(f"fmi3GetBoolean gave byte {b}")
         elif op == "step":
-            h = rng.choice([1e-3, 1e-2, 1e-2, 0.1, 1.0, 1e-12, 1e-300, 50.0, 1e3, 0.0, -1.0, math.nan, math.inf])
+            h = rng.choice([1e-3, 1e-2, 1e-2, 0.1, 1.0, 1e-12, 1e-300, 5e-324, 50.0, 1e3, 0.0, -1.0, math.nan, math.inf])
             now = self.time if self.time is not None else 0.0
             t = now if rng.random() < 0.9 else rng.choice([now + 1.0, math.nan, -1.0])
             self.do_step(t, h, f"fmi3DoStep(t={t}, h={h})")
@@ -533,6 +574,7 @@ class Harness3(Harness):
         elif op == "stepmode":
             if self.fmi("fmi3EnterStepMode", c) == OK:
                 self.state = STEP
+                self.pending_event = None  # unknown: were the updates made?
         elif op == "getstate":
             s = c_void_p()
             reuse = self.snapshots and rng.random() < 0.3
@@ -542,10 +584,12 @@ class Harness3(Harness):
                 if reuse and s.value not in self.snapshots:
                     self.report("fmi3GetFMUState into an existing state gave another pointer")
                 self.snapshots[s.value] = (self.state, self.time)
+                self.snap_pending[s.value] = self.pending_event
         elif op == "setstate" and self.snapshots:
             key = rng.choice(list(self.snapshots))
             if self.fmi("fmi3SetFMUState", c, c_void_p(key)) == OK:
                 self.state, self.time = self.snapshots[key]
+                self.pending_event = self.snap_pending.get(key)
                 self.check_outputs("fmi3SetFMUState")
         elif op == "freestate" and self.snapshots:
             key = rng.choice(list(self.snapshots))
@@ -559,6 +603,7 @@ class Harness3(Harness):
         elif op == "reset":
             if self.fmi("fmi3Reset", c) == OK:
                 self.state, self.time = INSTANTIATED, 0.0
+                self.pending_event = False
         elif op == "terminate":
             if self.fmi("fmi3Terminate", c) == OK:
                 self.state = TERMINATED
@@ -584,7 +629,13 @@ class Harness3(Harness):
         elif op == "logging":
             cats = [b"logEvents", b"logAll", b"logStatusError", b"nonsense"][: rng.randrange(0, 5)]
             arr = (c_char_p * max(1, len(cats)))(*cats) if cats else None
-            self.fmi("fmi3SetDebugLogging", c, self.flag(), len(cats), arr)
+            on = self.flag()
+            if self.fmi("fmi3SetDebugLogging", c, on, len(cats), arr) == OK and (not cats or b"logAll" in cats):
+                self.log_all = on != 0
+            if not self.log_all and rng.random() < 0.7:
+                self.log_all = self.logging(c, 1, [b"logAll"]) == OK  # mostly on: the work check needs it
+        elif op == "rollback":
+            self.rollback("")
         elif op == "free":
             self.free()
 
@@ -592,8 +643,173 @@ class Harness3(Harness):
         for key in list(self.snapshots):
             self.lib.fmi3FreeFMUState(self.c, byref(c_void_p(key)))
         self.snapshots.clear()
+        self.snap_pending.clear()
         self.call("fmi3FreeInstance", self.lib.fmi3FreeInstance, self.c)
         self.c = None
+        for twin in self.twins.values():
+            self.lib.fmi3FreeInstance(twin)
+        self.twins.clear()
+
+    # ---------------------------------------------------------------- rollback
+    def outputs_bits(self, c) -> bytes:
+        """Every output (Float64 with time, Int32, Boolean) as raw bytes, compared bit for bit."""
+        L = self.lib
+        out = b""
+        for pool, get, ctype in ((self.outputs + [self.time_var], L.fmi3GetFloat64, c_double),
+                                 (self.int_outputs, L.fmi3GetInt32, c_int32), (self.bool_outputs, L.fmi3GetBoolean, c_uint8)):
+            if pool:
+                vals = (ctype * len(pool))()
+                r = get(c, (c_uint * len(pool))(*[v.valueReference for v in pool]), len(pool), vals, len(pool))
+                out += bytes([r]) + bytes(vals)
+        return out
+
+    def twin(self, flags: tuple) -> int | None:
+        """An instance made with these flags (no callback), instantiated only: restores go into it."""
+        if flags not in self.twins:
+            c = self.call(f"fmi3InstantiateCoSimulation(twin, event={flags[0]}, early={flags[1]})",
+                          self.lib.fmi3InstantiateCoSimulation, b"twin", self.md.instantiationToken.encode(),
+                          (str(self.dir / "resources") + "/").encode(), 0, 0, int(flags[0]), int(flags[1]), None, 0,
+                          None, self.log_callback, INTERMEDIATE_CALLBACK())
+            if not c:
+                self.report(f"fmi3InstantiateCoSimulation of a twin returned NULL: {self.last(1)}")
+                return None
+            self.logging(c, 1, [b"logAll"])
+            self.twins[flags] = c
+        return self.twins[flags]
+
+    def restore_into(self, c, data: bytes) -> tuple[int, str]:
+        L = self.lib
+        s = c_void_p()
+        r = self.call("fmi3DeserializeFMUState(rollback)", L.fmi3DeserializeFMUState, c, data, len(data), byref(s))
+        if r != OK:
+            return r, "fmi3DeserializeFMUState: " + self.last(1)
+        r = self.call("fmi3SetFMUState(rollback)", L.fmi3SetFMUState, c, s)
+        L.fmi3FreeFMUState(c, byref(s))
+        return r, "" if r == OK else "fmi3SetFMUState: " + self.last(1)
+
+    def segment(self, c, event_mode: bool, in_event: bool, pending: bool, t: float, h: float, who: str,
+                log_all: bool) -> list[tuple]:
+        """What a master with these flags does from a restored state: with event
+        mode and an event pending (or in event mode), enter event mode, update
+        until done, enter step mode; then fmi3DoStep(t, h). The records of
+        every call, outputs as bytes."""
+        L = self.lib
+        recs = []
+        if event_mode and (in_event or pending):
+            if not in_event:
+                recs.append(("fmi3EnterEventMode", self.call(f"fmi3EnterEventMode ({who})", L.fmi3EnterEventMode, c)))
+            for _ in range(10):
+                flags = [c_uint8(7) for _ in range(5)]
+                r = self.call(f"fmi3UpdateDiscreteStates ({who})", L.fmi3UpdateDiscreteStates, c,
+                              *[byref(f) for f in flags], byref(c_double()))
+                recs.append(("fmi3UpdateDiscreteStates", r, [f.value for f in flags[:2]], self.outputs_bits(c)))
+                if r != OK or not flags[0].value:
+                    break
+            recs.append(("fmi3EnterStepMode", self.call(f"fmi3EnterStepMode ({who})", L.fmi3EnterStepMode, c)))
+        event, terminate, early = c_uint8(7), c_uint8(7), c_uint8(7)
+        lst = c_double(math.nan)
+        n_lines = len(self.work_lines)
+        label = f"fmi3DoStep(t={t}, h={h}) ({who})"
+        self.stepping = (t, t + h)
+        self.forced_requests = True
+        try:
+            r = self.call(label, L.fmi3DoStep, c, t, h, 0, byref(event), byref(terminate), byref(early), byref(lst))
+        finally:
+            self.stepping = None
+            self.forced_requests = False
+        self.step_message = self.last(1) if r != OK else ""
+        self.work_check(label, n_lines, r, log_all)
+        recs.append(("fmi3DoStep", r, event.value, early.value, lst.value.hex(),
+                     self.outputs_bits(c) if r in (OK, WARNING, DISCARD) else b""))
+        return recs
+
+    def rollback(self, why: str):
+        """A master's rollback: save (get + serialize), continue; the state
+        restored into another instance (same or other flags) and into its own."""
+        if self.c is None or self.state not in (STEP, EVENT) or self.time is None or not math.isfinite(self.time):
+            return
+        rng = self.rng
+        data = self.serialized()
+        if data is None:
+            self.report(f"fmi3GetFMUState/fmi3SerializeFMUState failed in {self.state} {why}: {self.last(1)}")
+            return
+        self.counts["rollbacks"] += 1
+        own = (bool(self.options["event"]), bool(self.options["early"]))
+        in_event = self.state == EVENT
+        pending = self.pending_event is True
+        maybe_pending = in_event or self.pending_event is not False
+        t = self.time
+        h = rng.choice([self.h_experiment, 10 * self.h_experiment, 1e-3, 1e-2])
+        where = (f"state saved in {self.state}{' with an event pending' if pending else ''} at t = {t!r} "
+                 f"by an instance with eventModeUsed={own[0]}, earlyReturnAllowed={own[1]}{' ' + why if why else ''}, "
+                 f"then fmi3DoStep(h={h})")
+        first = self.segment(self.c, own[0], in_event, pending, t, h, "original", self.log_all)
+        flags = own if rng.random() < 0.4 else rng.choice([f for f in ((False, False), (False, True), (True, False),
+                                                                        (True, True)) if f != own])
+        twin = self.twin(flags)
+        if twin is not None:
+            self.counts["restores_same_flags" if flags == own else "restores_other_flags"] += 1
+            r, msg = self.restore_into(twin, data)
+            if r != OK and "instance state Error" in msg:
+                # the instance was in the Error state (a step that failed), which no instance restores, by design
+                self.counts["error_state_saved"] += 1
+                self.state = ERRORED
+                return
+            if r != OK:
+                legal = flags != own and not flags[0] and maybe_pending and r == ERROR and msg.split(": ")[-1].strip()
+                if legal:
+                    self.counts["refused_legally"] += 1
+                else:
+                    self.report(f"a state the FMU serialized was refused by an instance with eventModeUsed={flags[0]}, "
+                                f"earlyReturnAllowed={flags[1]} ({where}): {msg}")
+            else:
+                second = self.segment(twin, flags[0], in_event, pending, t, h, "restored", True)
+                if flags == own:
+                    if second != first:
+                        self.report(f"restored in another instance, the calls differ ({where}): "
+                                    f"{self.first_difference(first, second)}")
+                else:
+                    a, b = first[-1], second[-1]
+                    if b[1] == DISCARD:
+                        # without the original's early returns the step may meet more events: its work cap may end it
+                        self.counts["other_flags_discarded"] += 1
+                    elif b[1] != OK and a[1] == OK:
+                        self.report(f"restored in an instance with eventModeUsed={flags[0]}, earlyReturnAllowed={flags[1]}, "
+                                    f"fmi3DoStep returned {b[1]} ({where}): {self.step_message}")
+                    elif a[1] == b[1] == OK and not (a[2] or a[3] or b[2] or b[3]):
+                        self.counts["compared_other_flags"] += 1
+                        if a[5] != b[5]:
+                            self.report(f"restored in an instance with eventModeUsed={flags[0]}, earlyReturnAllowed="
+                                        f"{flags[1]}, a step without events gives other outputs ({where})")
+        if rng.random() < 0.5 and first[-1][1] in (OK, WARNING, DISCARD):
+            # step, restore, step again: the same instance
+            r, msg = self.restore_into(self.c, data)
+            if r != OK:
+                self.report(f"a state the FMU serialized was refused by its own instance ({where}): {msg}")
+                self.state = None
+                return
+            self.counts["restored_here"] += 1
+            again = self.segment(self.c, own[0], in_event, pending, t, h, "rolled back", self.log_all)
+            if again != first:
+                self.report(f"rolled back, the calls differ ({where}): {self.first_difference(first, again)}")
+        # the original's state after its segment
+        r, event, early, lst = first[-1][1], first[-1][2], first[-1][3], float.fromhex(first[-1][4])
+        if r == OK:
+            self.state = STEP
+            self.time = lst if early else t + h
+            self.pending_event = bool(event) and own[0]
+            self.check_outputs(f"fmi3DoStep(h={h}) after a rollback")
+        elif r == DISCARD:
+            self.state, self.time = DISCARDED, None
+        else:
+            self.state = None
+
+    @staticmethod
+    def first_difference(a: list, b: list) -> str:
+        for x, y in zip(a, b):
+            if x != y:
+                return (f"{x[0]}: status {x[1]} vs {y[1]}, " + ("outputs differ" if x[-1] != y[-1] else f"{x[1:-1]} vs {y[1:-1]}"))
+        return f"{len(a)} calls vs {len(b)}"
 
     def serialized(self):
         L, c = self.lib, self.c
@@ -638,6 +854,7 @@ class Harness3(Harness):
             self.check_outputs("refused fmi3DeserializeFMUState")
         elif self.call("fmi3SetFMUState(corrupted)", L.fmi3SetFMUState, c, s) == OK:
             self.state = None  # unknown: read what we can
+            self.pending_event = None
             r, (t,) = self.get("Float64", [self.time_var.valueReference], raw=True)
             if r == OK:
                 self.time = t
@@ -671,8 +888,8 @@ class Harness3(Harness):
             self.free()
         return {"fmu": self.md.coSimulation.modelIdentifier, "fmi": 3, "seed": self.seed, "calls": self.calls,
                 "states": self.states_tried, "longest_s": self.longest[0], "longest_call": self.longest[1],
-                "counts": dict(self.counts), "broken": self.broken[:20], "n_broken": len(self.broken),
-                "first_trace": self.first_trace}
+                "counts": dict(self.counts), "work_line_required": self.work_required,
+                "broken": self.broken[:20], "n_broken": len(self.broken), "first_trace": self.first_trace}
 
 
 def main():
@@ -680,8 +897,12 @@ def main():
     ap.add_argument("--fmu", required=True)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--calls", type=int, default=10000)
+    ap.add_argument("--work-line", choices=("required", "optional"), default="required" if WORK_LINE_REQUIRED else "optional",
+                    help="whether every fmi3DoStep that runs must log its work line (logAll)")
     a = ap.parse_args()
-    print(json.dumps(Harness3(a.fmu, a.seed).run(a.calls)))
+    h = Harness3(a.fmu, a.seed)
+    h.work_required = a.work_line == "required"
+    print(json.dumps(h.run(a.calls)))
 
 
 if __name__ == "__main__":
