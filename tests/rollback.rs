@@ -251,3 +251,36 @@ fn a_lasting_hertz_contact_reanchors_and_every_state_restores() {
     assert!(pressed > 300, "the push holds the beam on the stop ({pressed} of 400 steps)");
     assert!(run.work().units > 8 * 3 * beamstop::solve::REANCHOR_AFTER, "at least three re-anchors: {:?}", run.work());
 }
+
+#[test]
+fn a_beam_released_by_an_input_restores_at_every_event_after() {
+    // PinnedBeamStop released at t = 0 by force = -1, then stepped from
+    // event to event (FMI 3.0's early return and event mode): every state,
+    // each pending event's included, restores.
+    let scene = component("pinned_beam");
+    let start = scene.experiment().start;
+    let inputs = [-1.0];
+    let mut run = scene.start(start, &[0.0]).unwrap();
+    run.set_inputs(&inputs).unwrap();
+    let h = 0.01;
+    let mut t = start;
+    for k in 0..300 {
+        let target = t + h;
+        loop {
+            let what = format!("PinnedBeamStop force = -1, step {k} at t = {}", run.time());
+            let mut restored = restores(&scene, &inputs, run.as_ref(), &what);
+            let a = run.advance_to_event(target).unwrap();
+            let b = restored.advance_to_event(target).unwrap();
+            assert_eq!(a, b, "{what}");
+            if let Reached::Event(_) = a {
+                let mut pending = restores(&scene, &inputs, run.as_ref(), &format!("{what} (event pending)"));
+                run.apply_events().unwrap();
+                pending.apply_events().unwrap();
+                assert_eq!(outputs(&scene, run.as_ref()), outputs(&scene, pending.as_ref()), "{what}");
+                continue;
+            }
+            break;
+        }
+        t = target;
+    }
+}

@@ -47,16 +47,16 @@ h = the experiment's stepSize and 10 h over the same horizon (HORIZON);
 a save before every step; cross-flag restores into all three other
 instances. `--quick` (CI): the tolerance ends and their geometric middle,
 the 5 input values (no random ones) set only where they change, h only, a
-horizon cut just after the first contacts, saves before step 0, before
-each step that sets an input and before every step of the window that
-holds the contacts, cross-flag restores into one other instance per state
-(in turn). `--fuzz N`: N sequences of random values for 1..all
+horizon cut just after the first contacts, saves before steps 0..9, the
+10 steps from each step that sets an input and every step of the window
+that holds the contacts, cross-flag restores into one other instance per
+state (in turn). `--fuzz N`: N sequences of random values for 1..all
 parameters (fuzz_fmi.admitted_value: the ends, the start value,
 log-uniform inside wide ranges, uniform), random inputs set before the
 saves of random steps, h or 10 h and, for FMI 3.0, random flags (the
 cross-flag references are the same sequence run with the other flags
-without saves), over the --quick horizon, saves before step 0, the steps
-setting inputs, the window and 10 % of the other steps. `--param NAME=VALUE`
+without saves), over the --quick horizon, saves as --quick and before 10 %
+of the other steps. `--param NAME=VALUE`
 (repeatable): that setting alone (an input as the sweep sets inputs), every
 flag and step of the sweep: the reproduction of a failure.
 
@@ -109,10 +109,11 @@ FLAGS = [(False, False), (False, True), (True, False), (True, True)]  # (eventMo
 # on; RotatingBeamImpact 9e-5, 5.8e-4, 6.7e-4, 1.29e-3;
 # SteelCantileverStop from 0.0433; WaggBishopCantilever1/4 22.235, 23.92;
 # WaggBishopChain 1.563, 8.02, 14.59; SpinUpBeam has no stop). --quick
-# saves before step 0, before every step that sets an input and before
-# every step from the third number on; the full sweep before every step.
+# saves before steps 0..9, before the 10 steps from each step that sets an
+# input and before every step from the third number on; the full sweep
+# before every step.
 HORIZON = {
-    "HertzStop": (0.075, 0.0722, 0.0700),
+    "HertzStop": (0.075, 0.0735, 0.0700),
     "PinnedBeamStop": (7.0, 6.5, 6.35),
     "RotatingBeamImpact": (0.02, 0.0007, 0.0),
     "SpinUpBeam": (1.5, 0.3, 0.0),
@@ -525,11 +526,14 @@ class Run:
         t = 0.0
         fmi3 = self.fmu.fmi == 3
         ev, early_ok = self.flags
+        last_set = 0  # --quick saves before step 0, the 10 steps from each input set and the window
         for k in range(self.n):
             target = t + self.h
             sets = k < len(self.inputs) and self.inputs[k]
-            self.saving = not self.plain and (self.save_from is None or k == 0 or sets or t >= self.save_from
-                           or self.rng.random() < self.p_save)
+            if sets:
+                last_set = k
+            self.saving = not self.plain and (self.save_from is None or k < last_set + 10 or t >= self.save_from
+                                              or self.rng.random() < self.p_save)
             if sets:
                 self.op(("set", self.inputs[k]))
             first = True
