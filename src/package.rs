@@ -91,7 +91,7 @@ pub fn documentation(scene: &Component, version: FmiVersion) -> String {
             escape(&v.name),
             v.vr,
             v.ty.name(),
-            escape(v.unit.name()),
+            escape(&v.unit.name()),
             escape(&v.description)
         ));
     }

@@ -10,8 +10,10 @@ pub enum Unit {
     MetrePerSecond2,
     Newton,
     NewtonPerMetre,
-    /// Hertz stiffness, N / m^1.5 (no integer SI exponents).
-    NewtonPerMetre1_5,
+    /// The stiffness `K` of a power-law force `K p^n`, N / m^n (Hertz:
+    /// n = 1.5; no integer SI exponents unless n is an integer); made by
+    /// [`Unit::power_stiffness`].
+    NewtonPerMetrePower(Exponent),
     NewtonMetre,
     Joule,
     RadianPerSecond,
@@ -30,9 +32,36 @@ pub enum Unit {
     RadianSecond,
 }
 
+/// The exponent `n` of a power-law stiffness's unit N/m^n (its bits, so
+/// that units compare, hash and sort; positive, so in numeric order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Exponent(u64);
+
+impl Exponent {
+    pub const fn of(n: f64) -> Exponent {
+        Exponent(n.to_bits())
+    }
+
+    pub fn value(self) -> f64 {
+        f64::from_bits(self.0)
+    }
+}
+
 impl Unit {
-    pub fn name(self) -> &'static str {
-        match self {
+    /// N/m^n: N/m at n = 1, else [`Unit::NewtonPerMetrePower`].
+    pub fn power_stiffness(n: f64) -> Unit {
+        if n == 1.0 {
+            Unit::NewtonPerMetre
+        } else {
+            Unit::NewtonPerMetrePower(Exponent(n.to_bits()))
+        }
+    }
+
+    pub fn name(self) -> std::borrow::Cow<'static, str> {
+        if let Unit::NewtonPerMetrePower(n) = self {
+            return format!("N/m{}", n.value()).into();
+        }
+        std::borrow::Cow::Borrowed(match self {
             Unit::One => "1",
             Unit::Metre => "m",
             Unit::Second => "s",
@@ -40,7 +69,6 @@ impl Unit {
             Unit::MetrePerSecond2 => "m/s2",
             Unit::Newton => "N",
             Unit::NewtonPerMetre => "N/m",
-            Unit::NewtonPerMetre1_5 => "N/m1.5",
             Unit::NewtonMetre => "N.m",
             Unit::Joule => "J",
             Unit::RadianPerSecond => "rad/s",
@@ -53,13 +81,17 @@ impl Unit {
             Unit::NewtonMetreSecondPerRadian => "N.m.s/rad",
             Unit::NewtonMetrePerRadianSecond => "N.m/(rad.s)",
             Unit::RadianSecond => "rad.s",
-        }
+            Unit::NewtonPerMetrePower(_) => unreachable!("named above"),
+        })
     }
 
     /// Exponents of kg, m, s, rad (`None`: not integer, as N/m^1.5).
     pub fn si_exponents(self) -> Option<[i32; 4]> {
         Some(match self {
-            Unit::NewtonPerMetre1_5 => return None,
+            Unit::NewtonPerMetrePower(n) => {
+                let n = n.value();
+                return (n.fract() == 0.0 && n.abs() < 64.0).then(|| [1, 1 - n as i32, -2, 0]);
+            }
             Unit::One => [0, 0, 0, 0],
             Unit::Metre => [0, 1, 0, 0],
             Unit::Second => [0, 0, 1, 0],

@@ -19,9 +19,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, LawOutput, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, LawOutput, ParamSpec, PhaseTerm, Switch, Watch};
 use crate::solve::Jet;
-use crate::units::Unit;
+use crate::units::{Exponent, Unit};
+
+/// N/m^1.5.
+const HERTZ_EXPONENT: Exponent = Exponent::of(1.5);
 
 /// Scene schema: `{"type": "hertz", "K": ..., "C": ..., "damping": "linear"
 /// | "hunt_crossley" | "lankarani_nikravesh", "e": ...}` (`C` with linear
@@ -68,8 +71,7 @@ impl HertzDamping {
 const STIFFNESS: ParamSpec = ParamSpec {
     key: "K",
     description: "Hertz stiffness of stop '{stop}' (force K p^1.5 + damping, p the penetration)",
-    unit: Unit::NewtonPerMetre1_5,
-    range: RangeKind::HertzStiffness,
+    unit: Unit::NewtonPerMetrePower(HERTZ_EXPONENT),
     tunable: true,
 };
 
@@ -80,7 +82,6 @@ impl Hertz {
             key: "C",
             description: "Linear damping C of the Hertz stop '{stop}' (force K p^1.5 + C p', never pulling)",
             unit: Unit::NewtonSecondPerMetre,
-            range: RangeKind::Damping,
             tunable: true,
         },
     ];
@@ -90,7 +91,6 @@ impl Hertz {
             key: "e",
             description: "Restitution the hysteretic damping of the Hertz stop '{stop}' aims at",
             unit: Unit::One,
-            range: RangeKind::Unit,
             tunable: true,
         },
     ];

@@ -14,6 +14,8 @@
 //! registration).
 
 pub mod hertz;
+pub mod impact;
+pub mod mode_transfer;
 pub mod restitution;
 pub mod spring_dashpot;
 
@@ -21,8 +23,10 @@ use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
 pub use hertz::{Hertz, HertzDamping};
-pub use restitution::{apply_impact, ImpactRow, Restitution};
-pub use spring_dashpot::{ContactMethod, SpringDashpot, TransferDamping};
+pub use impact::{apply_impact, energy_loss, ImpactRow};
+pub use mode_transfer::{ContactMethod, ModeTransfer, TransferDamping};
+pub use restitution::Restitution;
+pub use spring_dashpot::SpringDashpot;
 
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::{Functional, Jet};
@@ -101,8 +105,10 @@ pub enum PhaseTerm {
     None,
     /// `w . q = target` held by a reaction (VSM12 eqs. 29-33).
     Constraint,
-    /// `-side w (k p + c p')`: `K += k w w^T`, `D += c w w^T`, `f += k target w`.
-    SpringDashpot { k: f64, c: f64 },
+    /// A force linear in the penetration and its rate, `-side w (k p +
+    /// c p')` with `k` the stiffness and `c` the damping: `K += k w w^T`,
+    /// `D += c w w^T`, `f += k target w`; the phase stays closed-form.
+    Linear { stiffness: f64, damping: f64 },
     /// A force nonlinear in the state (Hertz): the phase is integrated.
     Nonlinear,
 }
@@ -140,21 +146,6 @@ pub enum Switch {
     Graze,
 }
 
-/// Which of the structure's limits bounds a law parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RangeKind {
-    /// [0, 1].
-    Unit,
-    /// Durations: up to 1000 periods of the slowest mode.
-    Duration,
-    /// Stop stiffnesses.
-    Stiffness,
-    /// Stop damping coefficients.
-    Damping,
-    /// Hertz stiffnesses `K` of `K p^1.5`.
-    HertzStiffness,
-}
-
 /// One real parameter of a law, as the law describes it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParamSpec {
@@ -162,8 +153,10 @@ pub struct ParamSpec {
     pub key: &'static str,
     /// `{stop}` stands for the stop's name.
     pub description: &'static str,
+    /// Its unit, which also says which of the structure's limits bound
+    /// it (a kind's `law_range`): [0, 1] for a ratio, durations, stiffness
+    /// (N/m^n by its exponent), damping.
     pub unit: crate::units::Unit,
-    pub range: RangeKind,
     /// May change between communication steps.
     pub tunable: bool,
 }
@@ -303,7 +296,7 @@ pub trait ContactLaw: Send + Sync + std::fmt::Debug {
     }
     /// Mode transfer for a tip spring (RMTM's MTM and RMTM methods): the
     /// spring's stiffness, the method and the damping of the contact modes.
-    fn mode_transfer(&self) -> Option<(f64, ContactMethod, TransferDamping)> {
+    fn mode_transfer(&self) -> Option<ModeTransfer> {
         None
     }
     /// The stop outputs this law provides.

@@ -13,7 +13,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, Geometry, LawOutput, ParamSpec, PhaseTerm, RangeKind, Switch, Watch};
+use super::mode_transfer::{ContactMethod, ModeTransfer, TransferDamping};
+use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, Geometry, LawOutput, ParamSpec, PhaseTerm, Switch, Watch};
 use crate::solve::{Functional, Jet};
 use crate::units::Unit;
 
@@ -34,62 +35,18 @@ pub struct SpringDashpot {
     pub transfer_damping: TransferDamping,
 }
 
-/// RMTM's three ways of solving a contact phase of a tip spring stop.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum ContactMethod {
-    /// Force integration: the stop's force on the structure's own modes
-    /// (`K + k w w^T`), exact for that Galerkin model.
-    #[default]
-    Fim,
-    /// Mode transfer: while in contact, the modes of the cantilever with
-    /// the tip spring; both fields projected at every switch.
-    Mtm,
-    /// Relative mode transfer: the motion after each switch is an
-    /// increment, in the new modes, over the shape frozen at the switch.
-    Rmtm,
-}
-
-impl ContactMethod {
-    pub fn is_fim(&self) -> bool {
-        *self == ContactMethod::Fim
-    }
-}
-
-/// The damping of the contact modes under mode transfer.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum TransferDamping {
-    /// The structure's modal damping ratio on every contact mode (RMTM:
-    /// "adding damping" in each basis).
-    #[default]
-    Modal,
-    /// The structure's own damping operator projected on the contact modes,
-    /// `T diag(2 zeta omega) T^T`: the damping force integration applies, so
-    /// the three methods then solve the same continuum.
-    Inherited,
-}
-
-impl TransferDamping {
-    pub fn is_modal(&self) -> bool {
-        *self == TransferDamping::Modal
-    }
-}
-
 impl SpringDashpot {
     pub const PARAMETERS: &'static [ParamSpec] = &[
         ParamSpec {
             key: "k",
             description: "Stiffness of the compliant stop '{stop}' (force k p + c p', p the penetration)",
             unit: Unit::NewtonPerMetre,
-            range: RangeKind::Stiffness,
             tunable: true,
         },
         ParamSpec {
             key: "c",
             description: "Damping of the compliant stop '{stop}' (the stop pushes, never pulls)",
             unit: Unit::NewtonSecondPerMetre,
-            range: RangeKind::Damping,
             tunable: true,
         },
     ];
@@ -116,7 +73,7 @@ impl ContactLaw for SpringDashpot {
 
     fn term(&self, contact: Contact) -> PhaseTerm {
         match contact {
-            Contact::Pressed => PhaseTerm::SpringDashpot { k: self.k, c: self.c },
+            Contact::Pressed => PhaseTerm::Linear { stiffness: self.k, damping: self.c },
             _ => PhaseTerm::None,
         }
     }
@@ -194,8 +151,8 @@ impl ContactLaw for SpringDashpot {
         0.5 * self.k * p * p
     }
 
-    fn mode_transfer(&self) -> Option<(f64, ContactMethod, TransferDamping)> {
-        (!self.method.is_fim()).then_some((self.k, self.method, self.transfer_damping))
+    fn mode_transfer(&self) -> Option<ModeTransfer> {
+        (!self.method.is_fim()).then_some(ModeTransfer { stiffness: self.k, method: self.method, damping: self.transfer_damping })
     }
 
     fn outputs(&self) -> &'static [LawOutput] {

@@ -39,7 +39,7 @@ pub fn unit_definitions(x: &mut String, table: &VariableTable, extra: Option<Uni
     for u in &units {
         let Some(e) = u.si_exponents() else {
             // Fractional exponents (N/m^1.5) have no BaseUnit in FMI 2.0.
-            let _ = writeln!(*x, r#"    <Unit name="{}"/>"#, escape(u.name()));
+            let _ = writeln!(*x, r#"    <Unit name="{}"/>"#, escape(&u.name()));
             continue;
         };
         let mut attrs = String::new();
@@ -48,7 +48,7 @@ pub fn unit_definitions(x: &mut String, table: &VariableTable, extra: Option<Uni
                 let _ = write!(attrs, r#" {name}="{exp}""#);
             }
         }
-        let _ = writeln!(*x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, escape(u.name()));
+        let _ = writeln!(*x, r#"    <Unit name="{}"><BaseUnit{attrs}/></Unit>"#, escape(&u.name()));
     }
     let _ = writeln!(*x, "  </UnitDefinitions>");
 }

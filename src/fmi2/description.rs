@@ -58,7 +58,7 @@ pub fn model_description(scene: &Component) -> String {
         );
         let mut attrs = String::new();
         if v.ty == VarType::Real {
-            let _ = write!(attrs, r#" unit="{}""#, escape(v.unit.name()));
+            let _ = write!(attrs, r#" unit="{}""#, escape(&v.unit.name()));
         }
         if let Some(s) = v.start {
             let _ = write!(attrs, r#" start="{}""#, num(s));

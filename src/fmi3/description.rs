@@ -73,7 +73,7 @@ pub fn model_description(scene: &Component) -> String {
         };
         let mut attrs = String::new();
         if v.ty == VarType::Real {
-            let _ = write!(attrs, r#" unit="{}""#, escape(v.unit.name()));
+            let _ = write!(attrs, r#" unit="{}""#, escape(&v.unit.name()));
         }
         if let Some(s) = v.start {
             let _ = write!(attrs, r#" start="{}""#, num(s));
@@ -96,7 +96,7 @@ pub fn model_description(scene: &Component) -> String {
         x,
         r#"    <Float64 name="{TIME}" valueReference="{}" description="Simulation time" causality="independent" variability="continuous" unit="{}"/>"#,
         table.variables.len(),
-        escape(time_unit.name())
+        escape(&time_unit.name())
     );
     let _ = writeln!(x, "  </ModelVariables>");
     let _ = writeln!(x, "  <ModelStructure>");

@@ -8,7 +8,6 @@
 //!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml (FMI 3.0: modelDescription/fmi3/) for scenes/
 //!   beamstop check scene.json ...        validate scenes
 //!   beamstop modes SUPPORT N [X ...]     dimensionless beam modes as JSON
-//!   beamstop measure CONFIG.json         timed runs and results for the report (JSON out)
 //!   beamstop orbits SCENE.json --param NAME=FROM:TO ... --out DIR
 //!                                        periodic orbits continued in a parameter (orbits.rs)
 
@@ -31,9 +30,7 @@ const USAGE: &str = "usage:
                                           modelDescription/fmi3/<Name>.xml for every scene in scenes/
   beamstop check scene.json ...          validate scene files
   beamstop modes SUPPORT N [X ...]       beta_j and W_j(X), W_j''(X) of the unit-mean-square shapes
-                                          (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)
-  beamstop measure CONFIG.json           time a scene natively and print its impacts, final state and a dense
-                                          grid of the first stop's displacement as JSON (see src/bin/beamstop/measure.rs)";
+                                          (SUPPORT: pinned-pinned, clamped-free, clamped-clamped, clamped-pinned)";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -193,7 +190,6 @@ fn modes(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-mod measure;
 mod orbits;
 
 fn main() -> ExitCode {
@@ -219,10 +215,6 @@ fn main() -> ExitCode {
         }),
         Some("modes") => modes(&args[1..]),
         Some("orbits") => orbits::orbits(&args[1..], load),
-        Some("measure") => match args.get(1) {
-            Some(f) => measure::measure(Path::new(f)),
-            None => Err(USAGE.into()),
-        },
         Some("check") if args.len() > 1 => args[1..].iter().try_for_each(|f| {
             load(Path::new(f)).map(|s| println!("{f}: ok ({}, GUID {})", s.name(), s.guid()))
         }),

@@ -236,23 +236,25 @@ impl Limits {
         Range::closed(0.0, MAX_ZETA)
     }
 
-    /// The range a law parameter of this kind may take.
-    pub fn law_range(&self, kind: crate::contact::RangeKind) -> Range {
-        match kind {
-            crate::contact::RangeKind::Unit => Range::UNIT,
-            crate::contact::RangeKind::Duration => self.duration_range(),
-            crate::contact::RangeKind::Stiffness => self.stop_stiffness_range(),
-            crate::contact::RangeKind::Damping => self.stop_damping_range(),
-            crate::contact::RangeKind::HertzStiffness => self.hertz_stiffness_range(),
+    /// The range a law parameter may take, by its unit: ratios in [0, 1],
+    /// durations, stiffnesses (N/m^n by the exponent), damping.
+    pub fn law_range(&self, unit: Unit) -> Range {
+        match unit {
+            Unit::One => Range::UNIT,
+            Unit::Second => self.duration_range(),
+            Unit::NewtonPerMetre => self.stop_stiffness_range(),
+            Unit::NewtonPerMetrePower(n) => self.power_stiffness_range(n.value()),
+            Unit::NewtonSecondPerMetre => self.stop_damping_range(),
+            other => unreachable!("no law parameter is in {}", other.name()),
         }
     }
 
-    /// Hertz stiffness: a force `K p^1.5` no stiffer than the hardest linear
-    /// stop at a penetration of 1e-9 of the displacement scale (`K = k /
-    /// sqrt(p)` there).
-    pub fn hertz_stiffness_range(&self) -> Range {
+    /// Power-law stiffness: a force `K p^n` no stiffer than the hardest
+    /// linear stop at a penetration of 1e-9 of the displacement scale (`K =
+    /// k / p^(n - 1)` there).
+    pub fn power_stiffness_range(&self, n: f64) -> Range {
         let p = 1e-9 * self.displacement / MAX_DISPLACEMENT_RATIO;
-        Range::closed(0.0, self.stop_stiffness_range().max / p.sqrt())
+        Range::closed(0.0, self.stop_stiffness_range().max / p.powf(n - 1.0))
     }
 
     /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness
@@ -366,7 +368,7 @@ pub fn parameters(scene: &Scene) -> Vec<Parameter> {
                 format!("stops[{i}].law.{}", spec.key),
                 spec.description.replace("{stop}", s),
                 spec.unit,
-                limits.law_range(spec.range),
+                limits.law_range(spec.unit),
                 spec.tunable && !transfer,
             );
         }

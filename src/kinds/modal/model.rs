@@ -7,6 +7,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::contact::ModeTransfer;
 use crate::kinds::modal::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Contact, Geometry, Law, PhaseTerm};
 use crate::solve::lti::SystemCache;
@@ -127,7 +128,7 @@ impl TransferBasis {
         scene: &Scene,
         beam: &Beam,
         stop: usize,
-        (k, method, damping): (f64, ContactMethod, TransferDamping),
+        ModeTransfer { stiffness: k, method, damping }: ModeTransfer,
         zeta: &dyn Fn(usize) -> f64,
     ) -> TransferBasis {
         let n = beam.n_modes();

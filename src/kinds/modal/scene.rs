@@ -214,7 +214,7 @@ pub struct Stop {
 /// A stop's law: the contact law types are their own schema
 /// (`crate::contact`).
 pub use crate::contact::Law as StopLaw;
-pub use crate::contact::spring_dashpot::{ContactMethod, TransferDamping};
+pub use crate::contact::mode_transfer::{ContactMethod, TransferDamping};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -550,7 +550,7 @@ impl Scene {
             unique(format!("stops[{i}].name"), &s.name)?;
             self.check_location(&format!("stops[{i}]"), &s.at())?;
             s.law.validate(&format!("stops[{i}].law")).map_err(SceneError)?;
-            if let Some((_, method, _)) = s.law.mode_transfer() {
+            if let Some(method) = s.law.mode_transfer().map(|t| t.method) {
                 let length = self.section()?.map_or(1.0, |s| s.length);
                 let cantilever = matches!(self.structure, StructureSpec::Beam { support: SupportKind::ClampedFree, .. });
                 if !cantilever || s.x != Some(length) || self.stops.len() != 1 {

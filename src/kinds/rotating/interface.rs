@@ -53,7 +53,7 @@ pub fn parameters(spec: &RotatingSpec) -> Vec<Parameter> {
     if let Some(surface) = &spec.surface {
         // The law describes its own parameters.
         for p in surface.law.parameters() {
-            push(p.key, &format!("surface.law.{}", p.key), p.description.replace("{stop}", "surface"), p.unit, spec.law_range(p.range));
+            push(p.key, &format!("surface.law.{}", p.key), p.description.replace("{stop}", "surface"), p.unit, spec.law_range(p.unit));
         }
     }
     push("theta0", "initial.theta", "Initial hub angle".into(), Unit::Radian, spec.angle_range());

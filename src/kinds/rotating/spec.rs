@@ -20,7 +20,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::contact::{Law, RangeKind};
+use crate::contact::Law;
+use crate::units::Unit;
 use crate::variables::{Experiment, Range};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -281,12 +282,14 @@ impl RotatingSpec {
         self.experiment.clone().unwrap_or(Experiment { start: 0.0, stop: 1.0, step: 1e-3 })
     }
 
-    /// The allowed range of a surface law's parameter of this kind.
-    pub fn law_range(&self, kind: RangeKind) -> Range {
-        match kind {
-            RangeKind::Unit => Range::UNIT,
-            RangeKind::Damping => self.damping_range(),
-            RangeKind::Stiffness | RangeKind::HertzStiffness | RangeKind::Duration => STIFFNESS_RANGE,
+    /// The allowed range of a surface law's parameter, by its unit:
+    /// ratios in [0, 1], damping coefficients, and stiffnesses of any
+    /// exponent (and durations) in one wide range.
+    pub fn law_range(&self, unit: Unit) -> Range {
+        match unit {
+            Unit::One => Range::UNIT,
+            Unit::NewtonSecondPerMetre => self.damping_range(),
+            _ => STIFFNESS_RANGE,
         }
     }
 
@@ -386,7 +389,7 @@ impl RotatingSpec {
             let values = serde_json::to_value(&s.law).expect("a law always serialises");
             for p in s.law.parameters() {
                 let v = crate::fields::get(&values, p.key).unwrap_or(f64::NAN);
-                check(self.law_range(p.range), &format!("surface.law.{}", p.key), v)?;
+                check(self.law_range(p.unit), &format!("surface.law.{}", p.key), v)?;
             }
         }
         check(self.angle_range(), "initial.theta", self.initial.theta)?;

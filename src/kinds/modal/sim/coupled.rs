@@ -97,7 +97,7 @@ impl Simulation {
             match stop.law.term(contact) {
                 PhaseTerm::None => {}
                 PhaseTerm::Constraint => cols.push(w.clone()),
-                PhaseTerm::SpringDashpot { k: ks, c } => {
+                PhaseTerm::Linear { stiffness: ks, damping: c } => {
                     k.ger(ks, w, w, 1.0);
                     d.ger(c, w, w, 1.0);
                 }
@@ -144,7 +144,7 @@ impl Simulation {
             if m.law.term(s.contact) == PhaseTerm::Constraint {
                 cols.push(m.geometry.w.clone());
             }
-            if let PhaseTerm::SpringDashpot { k, .. } = m.law.term(s.contact) {
+            if let PhaseTerm::Linear { stiffness: k, .. } = m.law.term(s.contact) {
                 springs.push((k, i));
             }
         }

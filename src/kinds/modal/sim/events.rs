@@ -8,7 +8,7 @@ use nalgebra::DVector;
 use super::phases::Segment;
 use super::record::{Event, EventKind};
 use super::{Channel, SimError, Simulation};
-use crate::contact::restitution::{apply_impact, energy_loss, ImpactRow};
+use crate::contact::impact::{apply_impact, energy_loss, ImpactRow};
 use crate::contact::{Contact, Switch};
 use crate::solve::events::{tendency_from, Tendency};
 use crate::solve::free::ModalJet;

@@ -31,7 +31,7 @@ use nalgebra::{DMatrix, DVector};
 use super::phases::Segment;
 use super::search::{Probe, ProbeBuffers};
 use super::{Reached, SimError, Simulation};
-use crate::contact::restitution::{apply_impact, ImpactRow};
+use crate::contact::impact::{apply_impact, ImpactRow};
 use crate::contact::Watch;
 use crate::solve::free::ModalJet;
 use crate::solve::lti::CoupledSample;

@@ -189,7 +189,7 @@ pub(super) fn phase_dynamics(model: &Model, inputs: &[f64], state: &SimState) ->
         for (a, u) in tr.inputs.iter().zip(inputs) {
             forcing.constant.axpy(*u, a, 1.0);
         }
-        let (k, _, _) = model.stops[tr.stop].law.mode_transfer().expect("mode transfer needs a spring stop");
+        let k = model.stops[tr.stop].law.mode_transfer().expect("mode transfer needs a spring stop").stiffness;
         forcing.constant.axpy(k * model.stops[tr.stop].geometry.target(), &tr.stop_w, 1.0);
         let s = &tr.overlap * &f.c + &f.d;
         for (j, o) in tr.oscillators.iter().enumerate() {

@@ -1,5 +1,6 @@
-//! `beamstop measure CONFIG.json`: the native side of the error-against-run-time
-//! report. The configuration names a scene and what to change in it:
+//! `cargo run --release --example measure CONFIG.json`: the native side of
+//! the error-against-run-time report, for modal scenes (it changes the
+//! number of modes and reads the modal state, below the kinds' contract). The configuration names a scene and what to change in it:
 //!
 //! ```json
 //! { "scene": "scenes/pinned_beam.json", "set": { "R": 1.0, "F": 0.0 }, "modes": 8,
@@ -57,7 +58,7 @@ fn advance(sim: &mut Simulation, t_end: f64, step: f64) -> Result<(), String> {
     sim.advance_to(t_end).map_err(|e| e.to_string())
 }
 
-pub fn measure(config: &Path) -> Result<(), String> {
+fn measure(config: &Path) -> Result<(), String> {
     let text = std::fs::read_to_string(config).map_err(|e| format!("{}: {e}", config.display()))?;
     let cfg: Config = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", config.display()))?;
     let scene_text = std::fs::read_to_string(&cfg.scene).map_err(|e| format!("{}: {e}", cfg.scene))?;
@@ -136,4 +137,18 @@ pub fn measure(config: &Path) -> Result<(), String> {
     });
     println!("{out}");
     Ok(())
+}
+
+fn main() -> std::process::ExitCode {
+    let Some(config) = std::env::args().nth(1) else {
+        eprintln!("usage: cargo run --release --example measure CONFIG.json");
+        return std::process::ExitCode::from(2);
+    };
+    match measure(Path::new(&config)) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("measure: {e}");
+            std::process::ExitCode::FAILURE
+        }
+    }
 }
