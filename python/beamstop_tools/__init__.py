@@ -5,10 +5,18 @@
   scripts/sweep-figures);
 - `beamstop_tools.coupling`: the controller-coupling example (scripts/coupling).
 
-Installed editable into the project's venv by scripts/venv.sh
-(`pip install -e python`). `ROOT` is the repository this package lives in:
-its FMUs (target/fmu), scenes and report/.
+and `beamstop_tools.engine`, the one gateway to the engine they all use:
+the project's root, its Rust programs and its FMUs.
+
+Installed editable into the project's venv by scripts/venv.sh, or as a
+package (`pip install ./python`: the console scripts beamstop-sweep,
+beamstop-orbits and beamstop-report). `ROOT` is the project it works on: its
+FMUs (target/fmu), scenes and report/; found by `engine.find_root()`
+($BEAMSTOP_ROOT, the working directory or one above it, the editable
+checkout), else the working directory.
 """
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from .engine import find_root
+
+ROOT = find_root(required=False) or Path.cwd()

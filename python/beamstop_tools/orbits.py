@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import subprocess
 import sys
 import time
 from dataclasses import dataclass
@@ -29,12 +28,11 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from . import ROOT
+from . import ROOT, engine
 from .sweep.errors import SweepError
 from .sweep.expr import Expression
 
 #: The command line built by scripts/orbits (cargo build --release).
-BINARY = ROOT / "target" / "release" / "beamstop"
 LIST_COLUMNS = {"multipliers_re", "multipliers_im", "section", "state"}
 BOOL_COLUMNS = {"stable"}
 INT_COLUMNS = {"branch", "n_unstable", "sticks", "periods"}
@@ -78,10 +76,10 @@ def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out
                     ties: list[str] | None = None, points: int = 200, max_branches: int = 8,
                     transient: int = 200, max_period: int = 8, phase: float = 0.0) -> Orbits:
     """Runs `beamstop orbits` and returns its tables (also written as Parquet to `out`)."""
-    if not BINARY.exists():
-        raise OrbitsError(f"{BINARY} is missing: run scripts/orbits (or cargo build --release) first")
+    if not engine.binary().exists():
+        raise OrbitsError(f"{engine.binary()} is missing: run scripts/orbits (or cargo build --release) first")
     out = Path(out)
-    args = [str(BINARY), "orbits", str(scene), "--param", f"{param}={float(frm)!r}:{float(to)!r}", "--out", str(out),
+    args = ["orbits", str(scene), "--param", f"{param}={float(frm)!r}:{float(to)!r}", "--out", str(out),
             "--points", str(int(points)), "--max-branches", str(int(max_branches)), "--transient", str(int(transient)),
             "--max-period", str(int(max_period)), "--phase", repr(float(phase))]
     for s in ([] if start is None else [start] if isinstance(start, (int, float)) else start):
@@ -91,7 +89,7 @@ def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out
     for tie in ties or []:
         args += ["--tie", tie]
     began = time.perf_counter()
-    done = subprocess.run(args, capture_output=True, text=True)
+    done = engine.beamstop(args)
     seconds = time.perf_counter() - began
     if done.returncode != 0:
         raise OrbitsError(done.stderr.strip() or f"beamstop orbits failed ({done.returncode})")

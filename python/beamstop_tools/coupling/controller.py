@@ -7,12 +7,11 @@ it, libcosim the FMU, and their agreement checks both.
 """
 from __future__ import annotations
 
-import shutil
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import ROOT
+from .. import ROOT, engine
 
 CRATE = ROOT / "examples" / "coupling" / "pd_controller"
 FMU_PATH = ROOT / "target" / "coupling" / "PDController.fmu"
@@ -88,12 +87,8 @@ def build_fmu(out: Path = FMU_PATH, quiet: bool = True) -> Path:
     `cargo run -p pd_controller_fmu --bin package-pd-controller` (a no-op
     after scripts/test): beamstop is linked without its own kinds, so the
     FMU carries only the controller."""
-    cargo = shutil.which("cargo")
-    if cargo is None:
-        raise RuntimeError("cargo not found: PDController.fmu is built from examples/coupling/pd_controller")
-    cmd = [cargo, "run", "--release", "-p", "pd_controller_fmu", "--bin", "package-pd-controller"]
-    cmd += (["--quiet"] if quiet else []) + ["--", str(out.parent)]
-    subprocess.run(cmd, check=True, cwd=ROOT, stdout=subprocess.DEVNULL if quiet else None)
+    engine.cargo_run(["-p", "pd_controller_fmu", "--bin", "package-pd-controller"], [out.parent],
+                     stdout=subprocess.DEVNULL if quiet else None)
     built = out.parent / "PDController.fmu"
     if built != out:
         built.replace(out)

@@ -27,6 +27,7 @@ import time as _time
 
 import numpy as np
 
+from .. import engine
 from .controller import Controller
 from .system import System
 
@@ -62,14 +63,11 @@ def _result(rows, wall, extra=None):
 
 def run_fmpy(system: System, t_end: float, ordering: str = "jacobi") -> dict:
     """RotatingBeamImpact.fmu through fmpy's FMU2Slave, the controller in Python."""
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2OK
-
     if ordering not in ("jacobi", "gauss-seidel"):
         raise ValueError(ordering)
     beam_sim, ctrl_sim = system.simulators["beam"], system.simulators["controller"]
-    md = read_model_description(str(beam_sim.fmu))
-    var = {v.name: v for v in md.modelVariables}
+    fmu = engine.Fmu(beam_sim.fmu)
+    var = fmu.vars
     missing = [n for n in BEAM_OUTPUTS + ("torque",) if n not in var]
     if missing:
         raise KeyError(f"{beam_sim.fmu.name} has no {missing}")
@@ -78,32 +76,23 @@ def run_fmpy(system: System, t_end: float, ordering: str = "jacobi") -> dict:
              ("controller", "torque", "beam", "torque")}
     if set(system.connections) != wired:
         raise ValueError(f"the fmpy loop wires {sorted(wired)}, the structure {sorted(system.connections)}")
-    unzip = extract(str(beam_sim.fmu))
-    beam = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
-                     instanceName="beam")
     # The FMU's event log gives each contact's exact peak force (the outputs
     # are samples at communication points); anything not fmi2OK is an error.
     peaks, problems = [], []
 
-    def logger(env, instance, status, category, message):
-        text = (message or b"").decode("utf-8", "replace").replace("%%", "%")
-        if status != fmi2OK:
-            problems.append(f"[{(category or b'').decode()}] {text}")
+    def logger(status, category, message):
+        text = message.replace("%%", "%")
+        if status != 0:  # fmi2OK
+            problems.append(f"[{category}] {text}")
         m = PEAK.search(text)
         if m:
             peaks.append(float(m.group(1)))
 
-    callbacks = fmi2CallbackFunctions()
-    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-    beam.instantiate(callbacks=callbacks, loggingOn=True)
-    categories = [c for c in getattr(md, "logCategories", []) or []]
-    if any(getattr(c, "name", c) == "logEvents" for c in categories):
-        beam.setDebugLogging(True, ["logEvents"])
-    beam.setupExperiment(startTime=system.start)
-    beam.enterInitializationMode()
-    for name, value in beam_sim.initial.items():
-        beam.setReal([var[name].valueReference], [float(value)])
-    beam.exitInitializationMode()
+    categories = [getattr(c, "name", c) for c in getattr(fmu.md, "logCategories", []) or []]
+    session = engine.Session(fmu, "beam", logger=logger, logging_on=True,
+                             categories=["logEvents"] if "logEvents" in categories else None)
+    session.start(beam_sim.initial, t0=system.start)
+    beam = session.slave
 
     ctrl = Controller.from_values(ctrl_sim.initial, t_start=system.start)
     real_vr = [var[n].valueReference for n in BEAM_OUTPUTS if var[n].type == "Real"]
@@ -141,8 +130,7 @@ def run_fmpy(system: System, t_end: float, ordering: str = "jacobi") -> dict:
         theta, theta_dot = outs[0], outs[1]
         rows.append([grid[k + 1], applied.torque, applied.reference] + outs)
     wall = _time.perf_counter() - clock
-    beam.terminate()
-    beam.freeInstance()
+    session.close()
     if problems:
         raise RuntimeError("RotatingBeamImpact.fmu complained:\n" + "\n".join(problems[:20]))
     return _result(rows, wall, {"master": f"fmpy ({ordering})", "peaks": peaks})

@@ -40,8 +40,6 @@ import csv
 import json
 import math
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -54,7 +52,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from .. import ROOT  # noqa: E402
+from .. import engine  # noqa: E402
 from .common import (LONG_RUN, MATCH, QUICK_NOTE, SOLVERS, equal_error_table, fastest_within, fnum,  # noqa: E402
                      log, match_onsets, md_table, peer_arguments, work_precision_panel)
 
@@ -73,16 +71,9 @@ WORK_UNIT = {
 # ------------------------------------------------------------------ native side
 
 def run_example(out: Path, tmp: Path, reps: int) -> str:
-    cmd = [
-        "cargo", "run", "--release", "--quiet", "--example", "hertz_peer", "--",
-        "--csv", str(out / "work_precision_native.csv"),
-        "--dump", str(tmp / "model.json"),
-        "--stiffness-csv", str(tmp / "stiffness.csv"),
-        "--reps", str(reps),
-    ]
-    log("$ " + " ".join(cmd))
-    p = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
-    sys.stdout.write(p.stdout)
+    p = engine.example("hertz_peer", ["--csv", out / "work_precision_native.csv", "--dump", tmp / "model.json",
+                                      "--stiffness-csv", tmp / "stiffness.csv", "--reps", reps],
+                       tee=True, echo=True, check=False)
     if p.returncode != 0:
         raise SystemExit(f"hertz_peer failed ({p.returncode})")
     return p.stdout

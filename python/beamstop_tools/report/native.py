@@ -1,22 +1,19 @@
-"""beamstop itself: the native executable (`beamstop measure`) and the FMU
-driven through fmpy's FMU2Slave. Event times come from the simulation's
-structured events (`beamstop measure` prints them as JSON), never from log
+"""beamstop itself: natively (examples/measure.rs) and the FMU driven
+through fmpy's FMU2Slave (`engine.Session`). Event times come from the simulation's
+structured events (examples/measure.rs prints them as JSON), never from log
 text: the FMU runs the same code, and its outputs are checked against the
 native run's."""
 from __future__ import annotations
 
 import json
 import os
-import subprocess
 import tempfile
 import time
 
 import numpy as np
 
-from .. import ROOT
+from .. import ROOT, engine
 from .models import Scene
-
-EXE = str(ROOT / "target" / "release" / "beamstop")
 
 
 def measure(scene: Scene, *, event_tolerance=None, step=0.0, repeats=20, dense_dt=None, modes=None,
@@ -37,7 +34,7 @@ def measure(scene: Scene, *, event_tolerance=None, step=0.0, repeats=20, dense_d
         json.dump(cfg, f)
         path = f.name
     try:
-        p = subprocess.run([EXE, "measure", path], capture_output=True, text=True, cwd=ROOT)
+        p = engine.example("measure", [path], capture=True, check=False)
     finally:
         os.unlink(path)
     if p.returncode != 0:
@@ -59,36 +56,21 @@ def native_final(scene: Scene, out) -> np.ndarray:
 
 class FmuRunner:
     def __init__(self, scene: Scene):
-        from fmpy import extract, read_model_description
-
         self.scene = scene
-        fmu_path = str(ROOT / scene.fmu)
-        self.md = read_model_description(fmu_path)
-        self.dir = extract(fmu_path)
-        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.fmu = engine.Fmu(ROOT / scene.fmu)
+        self.vr = self.fmu.vr
         pre = scene.fmu_prefix
         n = scene.n
         self.out_w = self.vr[f"{pre}w" if pre else "w_stop"]
         self.out_state = [self.vr[f"q[{j}]"] for j in range(1, n + 1)] + [self.vr[f"qd[{j}]"] for j in range(1, n + 1)]
-        self.start = [(self.vr[k], float(v)) for k, v in scene.set_values.items()]
 
     def _instance(self):
-        from fmpy.fmi2 import FMU2Slave
-
-        fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.dir,
-                        modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="report")
-        fmu.instantiate()
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        if self.start:
-            fmu.setReal([v for v, _ in self.start], [x for _, x in self.start])
-        fmu.exitInitializationMode()
-        return fmu
+        return engine.Session(self.fmu, "report").start(self.scene.set_values).slave
 
     def run(self, h: float, repeats: int = 5):
         """Median wall time of the doStep loop (reading w at the stop after
         each step, as a master would); the event times from the native run
-        of the same scene and step (`beamstop measure`, structured: the
+        of the same scene and step (examples/measure.rs, structured: the
         trajectory does not depend on who drives the code)."""
         t_end = self.scene.t_end
         nsteps = max(1, int(round(t_end / h)))

@@ -16,16 +16,14 @@ import argparse
 import csv
 import json
 import math
-import subprocess
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .. import ROOT
+from .. import ROOT, engine
 from .common import QUICK_NOTE, out_dir
 
-EXE = ROOT / "target" / "release" / "beamstop"
 T_END = 2.0
 DT = 1e-3
 
@@ -69,7 +67,7 @@ def run(law: dict, modes: int) -> np.ndarray:
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "scene.json"
         path.write_text(json.dumps(scene))
-        p = subprocess.run([str(EXE), "run", str(path), "--out", d], capture_output=True, text=True)
+        p = engine.beamstop(["run", path, "--out", d])
         if p.returncode:
             raise RuntimeError(p.stdout + p.stderr)
         rows = list(csv.DictReader(open(Path(d) / f"{scene['name']}.csv")))

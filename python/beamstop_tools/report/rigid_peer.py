@@ -16,14 +16,13 @@ import argparse
 import csv
 import math
 import pathlib
-import subprocess
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .. import ROOT  # noqa: E402
+from .. import engine  # noqa: E402
 from .common import REPORT, out_dir  # noqa: E402
 
 OUT = REPORT / "rigid_peer"
@@ -134,9 +133,8 @@ def main(argv=None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     csvs = out if args.run else OUT
     if args.run:
-        cmd = ["cargo", "run", "--release", "--quiet", "--example", "rigid_peer", "--",
-               "--csv", str(csvs / "runs.csv"), "--levels-csv", str(csvs / "levels.csv")]
-        subprocess.run(cmd + (["--quick", "--scene", "S2"] if args.quick else []), cwd=ROOT, check=True)
+        engine.example("rigid_peer", ["--csv", csvs / "runs.csv", "--levels-csv", csvs / "levels.csv"]
+                       + (["--quick", "--scene", "S2"] if args.quick else []))
     runs, levels = read(csvs / "runs.csv"), read(csvs / "levels.csv")
     plot(runs, out / "work_precision.png")
     (out / "summary.md").write_text(summary(runs, levels))

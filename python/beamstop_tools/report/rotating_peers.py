@@ -58,8 +58,6 @@ import json
 import math
 import os
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -73,7 +71,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 from scipy.optimize import brentq, minimize_scalar  # noqa: E402
 
-from .. import ROOT  # noqa: E402
+from .. import engine  # noqa: E402
 from .common import (LONG_RUN, MATCH, QUICK_NOTE, SOLVERS, equal_error_table, fastest_within, fnum,  # noqa: E402
                      log, match_onsets, md_table, peer_arguments, work_precision_panel)
 
@@ -92,13 +90,8 @@ WORK_UNIT = {
 # ------------------------------------------------------------------ native side
 
 def run_example(tmp: Path, reps: int, quick: bool) -> str:
-    cmd = ["cargo", "run", "--release", "--quiet", "--example", "rotating_peer", "--",
-           "--json", str(tmp / "native.json"), "--reps", str(reps)]
-    if quick:
-        cmd.append("--quick")
-    log("$ " + " ".join(cmd))
-    p = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
-    sys.stdout.write(p.stdout)
+    p = engine.example("rotating_peer", ["--json", tmp / "native.json", "--reps", reps] + (["--quick"] if quick else []),
+                       tee=True, echo=True, check=False)
     if p.returncode != 0:
         raise SystemExit(f"rotating_peer failed ({p.returncode})")
     return p.stdout

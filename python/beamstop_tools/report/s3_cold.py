@@ -20,31 +20,23 @@ import tempfile
 import time
 from pathlib import Path
 
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
-
-ROOT = Path(__file__).resolve().parents[3]
+from .. import ROOT, engine
 
 
 def fmu_phases(fmu: Path, instances: int, t_end: float) -> dict:
     """Seconds per phase of fresh instances (the binary loaded once)."""
-    md = read_model_description(str(fmu))
-    unzipped = extract(str(fmu))
+    unzipped = engine.Fmu(fmu)
     phases = {"instantiate": [], "initialise": [], "first doStep": []}
     for k in range(instances):
-        f = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
-                      instanceName=f"s3_{k}")
+        f = engine.Session(unzipped, f"s3_{k}", instantiate=False)
         t0 = time.perf_counter()
         f.instantiate()
         t1 = time.perf_counter()
-        f.setupExperiment(startTime=0.0)
-        f.enterInitializationMode()
-        f.exitInitializationMode()
+        f.start()
         t2 = time.perf_counter()
-        f.doStep(currentCommunicationPoint=0.0, communicationStepSize=t_end)  # fmpy raises on a bad status
+        f.step(0.0, t_end)  # fmpy raises on a bad status
         t3 = time.perf_counter()
-        f.terminate()
-        f.freeInstance()
+        f.close()
         phases["instantiate"].append(t1 - t0)
         phases["initialise"].append(t2 - t1)
         phases["first doStep"].append(t3 - t2)
@@ -54,10 +46,8 @@ def fmu_phases(fmu: Path, instances: int, t_end: float) -> dict:
 def peer_at(level: float) -> dict:
     with tempfile.TemporaryDirectory() as td:
         levels = Path(td) / "levels.csv"
-        subprocess.run(["cargo", "build", "--release", "--quiet", "--example", "rigid_peer"], cwd=ROOT, check=True)
-        subprocess.run([str(ROOT / "target/release/examples/rigid_peer"), "--scene", "S3", "--quick",
-                        "--csv", str(Path(td) / "runs.csv"), "--levels-csv", str(levels)],
-                       cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+        engine.example("rigid_peer", ["--scene", "S3", "--quick", "--csv", Path(td) / "runs.csv",
+                                      "--levels-csv", levels], stdout=subprocess.DEVNULL)
         rows = list(csv.DictReader(open(levels)))
     row = min((r for r in rows if float(r["level"]) >= level * (1 - 1e-9)), key=lambda r: float(r["level"]))
     return row

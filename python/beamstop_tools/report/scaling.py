@@ -15,14 +15,13 @@ import argparse
 import csv
 import math
 import pathlib
-import subprocess
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from .. import ROOT  # noqa: E402
+from .. import engine  # noqa: E402
 from .common import REPORT, out_dir  # noqa: E402
 
 OUT = REPORT / "scaling"
@@ -132,8 +131,7 @@ def main(argv=None) -> None:
     args.csv = args.csv or (args.out if args.run else OUT) / "scaling.csv"
     args.out.mkdir(parents=True, exist_ok=True)
     if args.run:
-        subprocess.run(["cargo", "run", "--release", "--quiet", "--example", "scaling", "--", "--csv", str(args.csv)]
-                       + (QUICK_MODES if args.quick else []), cwd=ROOT, check=True)
+        engine.example("scaling", ["--csv", args.csv] + (QUICK_MODES if args.quick else []))
     rows = read(args.csv)
     plot(rows, args.out / "scaling.png")
     (args.out / "summary.md").write_text(summary(rows))

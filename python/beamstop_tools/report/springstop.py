@@ -44,7 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.ticker  # noqa: E402,F401
 from scipy.signal import find_peaks  # noqa: E402
 
-from .. import ROOT  # noqa: E402
+from .. import ROOT, engine  # noqa: E402
 from . import springstop_reference  # noqa: E402
 from .common import log, md_table, out_dir  # noqa: E402
 
@@ -56,7 +56,7 @@ SCENES = {
 METHODS = ("fim", "mtm", "rmtm")
 TOLS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
 SPEED_RE = re.compile(r"speed=([0-9.eE+-]+)")
-STAT_RE = re.compile(r"(\d+) events, (\d+) event-function evaluations, ([0-9.eE+-]+) ms")
+STAT_RE = re.compile(r"(\d+) events, (\d+) (?:event-function evaluations|event-search points), ([0-9.eE+-]+) ms")
 
 
 # ----------------------------------------------------------------- scenes and runs
@@ -121,8 +121,7 @@ class Runner:
             json.dump(scene, fh)
         t0 = time.perf_counter()
         try:
-            p = subprocess.run([self.exe, "run", str(path), "--out", str(out)], capture_output=True, text=True,
-                               timeout=self.timeout_s)
+            p = engine.beamstop(["run", path, "--out", out], exe=self.exe, timeout=self.timeout_s)
         except subprocess.TimeoutExpired:
             raise RunFailed(f"no result within {self.timeout_s:g} s")
         finally:
@@ -1061,7 +1060,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="smoke run (< 1 min); not the report's figures")
     ap.add_argument("--out", default=None, help="output folder (default report/spring_stop, or "
                                                  "target/report-quick/spring_stop with --quick, git-ignored)")
-    ap.add_argument("--bin", default=os.environ.get("BEAMSTOP_BIN", str(ROOT / "target" / "release" / "beamstop")),
+    ap.add_argument("--bin", default=str(engine.binary()),
                     help="the beamstop executable (default $BEAMSTOP_BIN or target/release/beamstop)")
     a = ap.parse_args(argv)
     cfg = config(a.quick)
@@ -1092,7 +1091,7 @@ def main(argv=None):
     except OSError:
         head = "?"
     cmd = "python -m beamstop_tools.report.springstop" + (" --quick" if a.quick else "") + (
-        f" --bin {a.bin}" if a.bin != str(ROOT / "target" / "release" / "beamstop") else "")
+        f" --bin {a.bin}" if a.bin != str(engine.binary()) else "")
     meta = {"command": cmd, "wall_s": time.perf_counter() - T0, "host": os.uname().nodename, "load0": load0,
             "load1": os.getloadavg()[0], "exe": a.bin,
             "exe_mtime": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(os.path.getmtime(a.bin))),

@@ -39,7 +39,7 @@ from . import spec as spec_mod  # noqa: E402
 from .engine import dask_client, run_sweep  # noqa: E402
 from .fmu import read_fmu  # noqa: E402
 from .store import read_points  # noqa: E402
-from .. import ROOT  # noqa: E402
+from .. import ROOT, engine  # noqa: E402
 from ..report.common import QUICK_NOTE  # noqa: E402
 
 FMU = ROOT / "target" / "fmu"
@@ -200,19 +200,10 @@ def fig9(client):
 
 def fig10(client=None):
     """Not a sweep: one run at d = 1.2 through fmpy, 200 periods from rest, the last 3 plotted."""
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-    path = FMU / "PinnedBeamStop.fmu"
-    md = read_model_description(str(path))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName="fig10")
-    s.instantiate()
-    s.setupExperiment(startTime=0.0)
-    s.enterInitializationMode()
     omega = 0.7 * PI2
-    s.setReal([vr[n] for n in ("F", "R", "eps", "d", "omega")], [72.0, 0.7, 1e-3, 1.2, omega])
-    s.exitInitializationMode()
+    session = engine.Session(engine.Fmu(FMU / "PinnedBeamStop.fmu"), "fig10")
+    session.start({"F": 72.0, "R": 0.7, "eps": 1e-3, "d": 1.2, "omega": omega})
+    s, vr = session.slave, session.fmu.vr
     T = 2 * math.pi / omega
     t0, n, periods = 197 * T, 400, 3
     s.doStep(0.0, t0)
@@ -228,8 +219,7 @@ def fig10(client=None):
         w.append(a)
         v.append(b)
     impacts = s.getInteger([vr["impacts"]])[0] - imp0
-    s.terminate()
-    s.freeInstance()
+    session.close()
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
     ax[0].plot((np.array(ts) - t0) / T, w, "k", lw=0.9)
     ax[0].axhline(1.2, color="tab:red", lw=0.7, ls="--", label="stop, d = 1.2")
@@ -400,7 +390,7 @@ def fig9_orbits(client):
                        sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
                        transient=int(spec.discard), max_branches=8 if QUICK else 200, out=WORK / "fig9_orbits")
     single = orb.continue_orbits(ROOT / "scenes" / "pinned_beam.json", "d", 0.0, 1.8, start=[1.2],
-                                 sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=200,
+                                 sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
                                  max_branches=1, out=WORK / "fig9_orbits_one")
     orb.plot(orbits, OUT / "fig9-orbits.png", sweep_table,
              title="PinnedBeamStop, VSM12 Fig. 9 (F = 72, omega = 0.7 omega_1, R = 0.7, eps = 1e-3): "
@@ -416,7 +406,13 @@ def fig9_orbits(client):
         if not near:
             return f"d = {p:.4g}"
         r = min(near, key=lambda r: abs(r["d"] - p))
-        mu = min(a for a, b in zip(r["multipliers_re"], r["multipliers_im"]) if b == 0.0)
+        mus = list(zip(r["multipliers_re"], r["multipliers_im"]))
+        real = [a for a, b in mus if b == 0.0]
+        if not real:  # complex pairs only: the response spirals in as |mu|^discard
+            mu = max((math.hypot(a, b) for a, b in mus), default=math.nan)
+            return (f"d = {p:.4g} (the period-1 orbit there: stable {r['stable']}, no real multiplier, its largest "
+                    f"|mu| {mu:.3f} (a complex pair), |mu|^{spec.discard:g} = {mu ** spec.discard:.2g})")
+        mu = min(real)
         return (f"d = {p:.4g} (the period-1 orbit there: stable {r['stable']}, its multiplier nearest -1 {mu:.3f}, "
                 f"|mu|^{spec.discard:g} = {abs(mu) ** spec.discard:.2g})")
 

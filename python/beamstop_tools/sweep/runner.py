@@ -19,11 +19,10 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from fmpy import extract
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
 from . import measures
+from .. import engine
 
 
 @dataclass(frozen=True)
@@ -73,22 +72,17 @@ class Instance:
         path = os.path.join(self.dir, "model.fmu")
         with open(path, "wb") as f:
             f.write(fmu_data)
-        self.unzipped = extract(path, unzipdir=os.path.join(self.dir, "x"))
+        self.fmu = engine.Fmu(path, unzipdir=os.path.join(self.dir, "x"))
         self.messages: list[str] = []
-        self._logger = fmi2CallbackLoggerTYPE(self._log)
-        self._callbacks = fmi2CallbackFunctions()
-        self._callbacks.logger = self._logger
         self.plan = plan
         self._new()
 
-    def _log(self, env, name, status, category, message):
-        text = message.decode("utf-8", "replace") if message else ""
+    def _log(self, status, category, text):
         self.messages = (self.messages + [text])[-5:]
 
     def _new(self):
-        self.slave = FMU2Slave(guid=self.plan.guid, unzipDirectory=self.unzipped,
-                               modelIdentifier=self.plan.model_identifier, instanceName="sweep")
-        self.slave.instantiate(callbacks=self._callbacks, loggingOn=False)
+        self.session = engine.Session(self.fmu, "sweep", logger=self._log, logging_on=False)
+        self.slave = self.session.slave
         self.used = False
         self.piece = None      # longest step the work cap allows, learnt from fmi2Discard
 
@@ -102,18 +96,13 @@ class Instance:
 
     def start(self, values: dict) -> None:
         """From rest at t = 0 with these parameter values."""
-        s = self.slave
         if self.used:
-            s.reset()
+            self.slave.reset()
         self.used = True
-        s.setupExperiment(startTime=0.0)
-        s.enterInitializationMode()
-        self.set(values)
-        s.exitInitializationMode()
+        self.session.start(values)
 
     def set(self, values: dict) -> None:
-        names = list(values)
-        self.slave.setReal([self.plan.refs[n] for n in names], [float(values[n]) for n in names])
+        self.session.set(values)
 
     def failure(self, err: Exception) -> str:
         last = f": {self.messages[-1]}" if self.messages else ""
