@@ -39,7 +39,6 @@ the impacts, the settling, and the checks:
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import shutil
@@ -49,6 +48,7 @@ import numpy as np
 
 from . import controller, runs, system as osp
 from .. import ROOT
+from ..report import common
 
 SCENE = ROOT / "scenes" / "rotating_beam.json"
 
@@ -198,11 +198,7 @@ def compare(a: dict, b: dict) -> dict:
 
 
 def write_csv(run: dict, path: Path):
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(runs.COLUMNS)
-        for row in zip(*(run[c] for c in runs.COLUMNS)):
-            w.writerow([repr(float(x)) for x in row])
+    common.write_csv(path, runs.COLUMNS, zip(*(run[c] for c in runs.COLUMNS)), lambda x: repr(float(x)))
 
 
 def plot(main: dict, other: dict | None, fig_: dict, c: dict, path: Path):

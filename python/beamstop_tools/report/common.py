@@ -5,7 +5,11 @@ and scipy (hertz, rotating_peers) have in common: the solvers, their plot
 styles and the matching of contact onsets."""
 from __future__ import annotations
 
+import csv
 import math
+import numbers
+import statistics
+import time
 from pathlib import Path
 
 from .. import ROOT
@@ -36,6 +40,31 @@ def out_dir(out, name: str, quick: bool) -> Path:
 
 def log(msg: str) -> None:
     print(msg, flush=True)
+
+
+def cell(x):
+    """A CSV cell: '' for None, a float as its shortest round-trip repr
+    (numpy's too), a list or tuple space-separated, anything else as is."""
+    if x is None:
+        return ""
+    if isinstance(x, numbers.Real) and not isinstance(x, numbers.Integral):
+        return repr(float(x))
+    if isinstance(x, (list, tuple)):
+        return " ".join(str(cell(v)) for v in x)
+    return x
+
+
+def write_csv(path, columns, rows, fmt=cell) -> None:
+    """A CSV: the header `columns`, then each row (a dict, read by column
+    with '' where a key is missing, or a sequence in column order) with
+    its cells through `fmt`: one function, or one per column."""
+    fmts = list(fmt) if isinstance(fmt, (list, tuple)) else [fmt] * len(columns)
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(columns)
+        for r in rows:
+            cells = [r.get(c, "") for c in columns] if isinstance(r, dict) else r
+            w.writerow([f(x) for f, x in zip(fmts, cells)])
 
 
 def md_table(header, rows) -> str:
@@ -82,6 +111,44 @@ def fastest_within(rows, solver, bound, err: str):
     return min(ok, key=lambda r: float(r["ms"]), default=None)
 
 
+def scipy_ladder(run, tols, reps: int, budget: float, skipped: list, stat=statistics.median):
+    """The scipy sweep of a report against the compiled peer (hertz,
+    rotating_peers): for Radau, then BDF, each rtol of `tols` run `reps`
+    times by `run(method, rtol)` (once more only while a run takes at most
+    LONG_RUN), a method stopped at a tolerance whose predicted time (the
+    last time times the last growth factor) would exceed its half of
+    `budget` seconds; skipped and failed (RuntimeError) settings are
+    appended to `skipped`. Yields (method, rtol, the first run's result,
+    the run times [s], 1e3 * stat(run times) [ms])."""
+    for method in ("Radau", "BDF"):
+        spent, times = 0.0, []
+        for rtol in tols:
+            if len(times) >= 2:
+                predicted = times[-1] * max(times[-1] / times[-2], 1.0)
+                if spent + predicted > 0.5 * budget:
+                    skipped.append(f"scipy-{method} rtol {rtol:.0e} (predicted {predicted:.0f} s; "
+                                   f"{spent:.0f} s of its {0.5 * budget:.0f} s share spent)")
+                    log(f"scipy {method} {rtol:.0e}: skipped, predicted {predicted:.0f} s")
+                    continue
+            el, first = [], None
+            try:
+                for _ in range(reps):
+                    t0 = time.perf_counter()
+                    res = run(method, rtol)
+                    el.append(time.perf_counter() - t0)
+                    first = first or res
+                    if el[-1] > LONG_RUN:
+                        break
+            except RuntimeError as e:
+                log(f"scipy {method} {rtol:.0e}: failed: {e}")
+                skipped.append(f"scipy-{method} rtol {rtol:.0e} (failed: {e})")
+                continue
+            spent += sum(el)
+            ms = 1e3 * stat(el)
+            times.append(ms / 1e3)
+            yield method, rtol, first, el, ms
+
+
 def peer_arguments(argv, doc: str, name: str, reps: int, budget: float):
     """The command line of a report against the compiled peer and scipy
     (hertz, rotating_peers), with its defaults resolved: `out` (a Path),
@@ -97,7 +164,7 @@ def peer_arguments(argv, doc: str, name: str, reps: int, budget: float):
     ap.add_argument("--summary-only", action="store_true",
                     help="rewrite the CSV, PNG and markdown from --work-dir, running nothing")
     ap.add_argument("--quick", action="store_true",
-                    help="a smoke run: one timed run, two scipy tolerances; not the report's numbers")
+                    help="a smoke run: one timed run, one scipy tolerance; not the report's numbers")
     args = ap.parse_args(argv)
     args.out = out_dir(args.out, name, args.quick)
     if args.reps is None:

@@ -32,7 +32,7 @@ last time times the last growth factor) would exceed its share of
 `--scipy-budget` seconds; such settings are listed as skipped.
 
 `--quick` (a smoke run, about 10 s, to target/report-quick/hertz): every
-native setting timed once, scipy at rtol 1e-4 and 1e-6 only.
+native setting timed once, scipy at rtol 1e-4 only.
 """
 from __future__ import annotations
 
@@ -54,10 +54,10 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 from .. import engine  # noqa: E402
 from .common import (LONG_RUN, MATCH, QUICK_NOTE, SOLVERS, equal_error_table, fastest_within, fnum,  # noqa: E402
-                     log, match_onsets, md_table, peer_arguments, work_precision_panel)
+                     log, match_onsets, md_table, peer_arguments, scipy_ladder, work_precision_panel)
 
 SCIPY_TOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
-SCIPY_TOLS_QUICK = (1e-4, 1e-6)
+SCIPY_TOLS_QUICK = (1e-4,)
 BOUNDS = (1e-4, 1e-6, 1e-8, 1e-10)
 WORK_UNIT = {
     "beamstop": "event-search probes (one per accepted collocation step in contact)",
@@ -197,38 +197,18 @@ def scipy_sweep(model: ScipyModel, reps: int, budget: float, quick: bool) -> tup
     ref = np.array(model.m["reference"]["tip"])
     ref_onsets = model.m["reference"]["onsets"]
     rows, skipped = [], []
-    share = {"Radau": 0.5 * budget, "BDF": 0.5 * budget}
-    for method in ("Radau", "BDF"):
-        spent, times = 0.0, []
-        for rtol in SCIPY_TOLS_QUICK if quick else SCIPY_TOLS:
-            if len(times) >= 2:
-                predicted = times[-1] * max(times[-1] / times[-2], 1.0)
-                if spent + predicted > share[method]:
-                    skipped.append(f"scipy-{method} rtol {rtol:.0e} (predicted {predicted:.0f} s; "
-                                   f"{spent:.0f} s of its {share[method]:.0f} s share spent)")
-                    log(f"scipy {method} {rtol:.0e}: skipped, predicted {predicted:.0f} s")
-                    continue
-            el, first = [], None
-            for r in range(reps):
-                t0 = time.perf_counter()
-                res = model.run(method, rtol)
-                el.append(time.perf_counter() - t0)
-                first = first or res
-                if el[-1] > LONG_RUN:
-                    break
-            spent += sum(el)
-            ms = 1e3 * statistics.median(el)
-            times.append(ms / 1e3)
-            err = float(np.nanmax(np.abs(first["tip"] - ref)) / model.gap)
-            if np.isnan(first["tip"]).any():
-                err = math.inf
-            missed, extra, dt = match_onsets(ref_onsets, first["onsets"])
-            rows.append(dict(solver=f"scipy-{method}", rtol=f"{rtol:.0e}", err_over_gap=f"{err:.4e}",
-                             onset_err_s=f"{dt:.4e}", ms=f"{ms:.4f}", reps=len(el), onsets=len(first["onsets"]),
-                             missed=missed, extra=extra, work=first["nfev"], lu=first["nlu"]))
-            log(f"scipy {method} {rtol:.0e}: {ms:9.1f} ms ({len(el)} run(s)), err/gap {err:.2e}, "
-                f"onset dt {dt:.2e} s, {len(first['onsets'])} onsets, missed {missed}, extra {extra}, "
-                f"nfev {first['nfev']}, nlu {first['nlu']}")
+    for method, rtol, first, el, ms in scipy_ladder(model.run, SCIPY_TOLS_QUICK if quick else SCIPY_TOLS, reps,
+                                                    budget, skipped):
+        err = float(np.nanmax(np.abs(first["tip"] - ref)) / model.gap)
+        if np.isnan(first["tip"]).any():
+            err = math.inf
+        missed, extra, dt = match_onsets(ref_onsets, first["onsets"])
+        rows.append(dict(solver=f"scipy-{method}", rtol=f"{rtol:.0e}", err_over_gap=f"{err:.4e}",
+                         onset_err_s=f"{dt:.4e}", ms=f"{ms:.4f}", reps=len(el), onsets=len(first["onsets"]),
+                         missed=missed, extra=extra, work=first["nfev"], lu=first["nlu"]))
+        log(f"scipy {method} {rtol:.0e}: {ms:9.1f} ms ({len(el)} run(s)), err/gap {err:.2e}, "
+            f"onset dt {dt:.2e} s, {len(first['onsets'])} onsets, missed {missed}, extra {extra}, "
+            f"nfev {first['nfev']}, nlu {first['nlu']}")
     return rows, skipped
 
 

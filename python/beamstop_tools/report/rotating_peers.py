@@ -49,11 +49,10 @@ scipy peak force is read off its dense output after the timed run.
 
 `--quick` (a smoke run, about 10 s, to target/report-quick/rotating): the
 example's quick settings (two tolerances each), one timed run, scipy at rtol
-1e-5 and 1e-7; the reference is then the tightest capped peer run.
+1e-5 only; the reference is then the tightest capped peer run.
 """
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
@@ -73,7 +72,8 @@ from scipy.optimize import brentq, minimize_scalar  # noqa: E402
 
 from .. import engine  # noqa: E402
 from .common import (LONG_RUN, MATCH, QUICK_NOTE, SOLVERS, equal_error_table, fastest_within, fnum,  # noqa: E402
-                     log, match_onsets, md_table, peer_arguments, work_precision_panel)
+                     log, match_onsets, md_table, peer_arguments, scipy_ladder, work_precision_panel)
+from .common import write_csv as common_write_csv  # noqa: E402
 
 SCIPY_TOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 BOUNDS = (1e-4, 1e-6, 1e-8, 1e-10)
@@ -347,41 +347,16 @@ class RotatingBeamPy:
 def scipy_sweep(beam: RotatingBeamPy, native: dict, reps: int, budget: float, quick: bool):
     t_end, pos, vel = native["t_end"], native["pos_scale"], native["vel_scale"]
     rows, skipped = [], []
-    tols = (1e-5, 1e-7) if quick else SCIPY_TOLS
-    for method in ("Radau", "BDF"):
-        spent, times = 0.0, []
-        for rtol in tols:
-            if len(times) >= 2:
-                predicted = times[-1] * max(times[-1] / times[-2], 1.0)
-                if spent + predicted > 0.5 * budget:
-                    skipped.append(f"scipy-{method} rtol {rtol:.0e} (predicted {predicted:.0f} s; "
-                                   f"{spent:.0f} s of its {0.5 * budget:.0f} s share spent)")
-                    log(f"scipy {method} {rtol:.0e}: skipped, predicted {predicted:.0f} s")
-                    continue
-            el, first = [], None
-            try:
-                for _ in range(reps):
-                    t0 = time.perf_counter()
-                    res = beam.run(method, rtol, t_end, pos, vel)
-                    el.append(time.perf_counter() - t0)
-                    first = first or res
-                    if el[-1] > LONG_RUN:
-                        break
-            except RuntimeError as e:
-                log(f"scipy {method} {rtol:.0e}: failed: {e}")
-                skipped.append(f"scipy-{method} rtol {rtol:.0e} (failed: {e})")
-                continue
-            spent += sum(el)
-            ms = 1e3 * min(el)
-            times.append(ms / 1e3)
-            peak = beam.first_peak(first["segments"])
-            row = dict(solver=f"scipy-{method}", tol=rtol, ms=ms, runs=len(el), onsets=first["onsets"],
-                       onset_speeds=first["onset_speeds"], peaks=[peak], theta=first["theta"],
-                       theta_dot=first["theta_dot"], tip_x=first["tip_x"], tip_y=first["tip_y"], v_l=first["v_l"],
-                       steps=first["nfev"], contact_steps=None, lu=first["nlu"], njev=first["njev"])
-            rows.append(row)
-            log(f"scipy {method} {rtol:.0e}: {ms:9.1f} ms ({len(el)} run(s)), {len(first['onsets'])} contacts, "
-                f"first peak {peak:.6f} N, nfev {first['nfev']}, nlu {first['nlu']}")
+    for method, rtol, first, el, ms in scipy_ladder(lambda m, rtol: beam.run(m, rtol, t_end, pos, vel),
+                                                    (1e-5,) if quick else SCIPY_TOLS, reps, budget, skipped, stat=min):
+        peak = beam.first_peak(first["segments"])
+        row = dict(solver=f"scipy-{method}", tol=rtol, ms=ms, runs=len(el), onsets=first["onsets"],
+                   onset_speeds=first["onset_speeds"], peaks=[peak], theta=first["theta"],
+                   theta_dot=first["theta_dot"], tip_x=first["tip_x"], tip_y=first["tip_y"], v_l=first["v_l"],
+                   steps=first["nfev"], contact_steps=None, lu=first["nlu"], njev=first["njev"])
+        rows.append(row)
+        log(f"scipy {method} {rtol:.0e}: {ms:9.1f} ms ({len(el)} run(s)), {len(first['onsets'])} contacts, "
+            f"first peak {peak:.6f} N, nfev {first['nfev']}, nlu {first['nlu']}")
     return rows, skipped
 
 
@@ -416,20 +391,22 @@ def plot(rows, path: Path, ref_label: str, t_end: float):
     plt.close(fig)
 
 
+#: peers.csv: column -> (the row's key, None for the solver's work unit; its format, None: as is)
+CSV = {"solver": ("solver", None), "tol": ("tol", ".0e"), "ms": ("ms", ".4f"), "runs": ("runs", None),
+       "contacts": ("contacts", None), "missed": ("missed", None), "extra": ("extra", None),
+       "onset_dt_s": ("onset_dt", ".3e"), "first_peak_N": ("peak", ".9f"), "peak_rel_err": ("peak_err", ".3e"),
+       "tip_err_over_L": ("tip_err", ".3e"), "theta_err_rad": ("theta_err", ".3e"), "err": ("err", ".3e"),
+       "theta": ("theta", ".15e"), "theta_dot": ("theta_dot", ".15e"), "tip_x": ("tip_x", ".15e"),
+       "tip_y": ("tip_y", ".15e"), "work": ("steps", None), "work_unit": (None, None),
+       "contact_steps": ("contact_steps", None), "lu": ("lu", None)}
+
+
 def write_csv(rows, path: Path):
-    header = ["solver", "tol", "ms", "runs", "contacts", "missed", "extra", "onset_dt_s", "first_peak_N",
-              "peak_rel_err", "tip_err_over_L", "theta_err_rad", "err", "theta", "theta_dot", "tip_x", "tip_y",
-              "work", "work_unit", "contact_steps", "lu"]
-    with open(path, "w", newline="") as fh:
-        wr = csv.writer(fh)
-        wr.writerow(header)
-        for r in rows:
-            wr.writerow([r["solver"], f"{r['tol']:.0e}", "" if r.get("ms") is None else f"{r['ms']:.4f}", r["runs"],
-                         r["contacts"], r["missed"], r["extra"], f"{r['onset_dt']:.3e}", f"{r['peak']:.9f}",
-                         f"{r['peak_err']:.3e}", f"{r['tip_err']:.3e}", f"{r['theta_err']:.3e}", f"{r['err']:.3e}",
-                         f"{r['theta']:.15e}", f"{r['theta_dot']:.15e}", f"{r['tip_x']:.15e}", f"{r['tip_y']:.15e}",
-                         r["steps"], WORK_UNIT[r["solver"]], "" if r.get("contact_steps") is None else r["contact_steps"],
-                         r.get("lu", "")])
+    def fmt(spec):
+        return lambda x: "" if x is None else (format(x, spec) if spec else x)
+
+    table = [{c: WORK_UNIT[r["solver"]] if key is None else r.get(key) for c, (key, _) in CSV.items()} for r in rows]
+    common_write_csv(path, list(CSV), table, [fmt(spec) for _, spec in CSV.values()])
 
 
 def summary(out: Path, rows, ref, checks, eq, native, skipped, elapsed, reps, cf, load, quick):

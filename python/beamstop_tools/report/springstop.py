@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import csv
 import json
 import math
 import os
@@ -46,7 +45,7 @@ from scipy.signal import find_peaks  # noqa: E402
 
 from .. import ROOT, engine  # noqa: E402
 from . import springstop_reference  # noqa: E402
-from .common import log, md_table, out_dir  # noqa: E402
+from .common import log, md_table, out_dir, write_csv  # noqa: E402
 
 SCENES = {
     "soft": ROOT / "scenes" / "spring_stop_soft.json",
@@ -250,14 +249,6 @@ def fmt(x, d=3):
     if 1e-3 <= ax < 1e4:
         return f"{x:.{d}g}"
     return f"{x:.{max(d - 1, 1)}e}"
-
-
-def write_csv(path, header, rows):
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for r in rows:
-            w.writerow([repr(float(c)) if isinstance(c, (float, np.floating)) else c for c in r])
 
 
 def rtol_range(rtols):
@@ -1043,9 +1034,9 @@ def findings(cfg, s1, conv_res, conv, peaks, hdiffs, rt, s6):
 
 def config(quick: bool) -> dict:
     if quick:
-        return dict(quick=True, reps=1, kappas=[1e-2, 1e2, 1e6, 1e10], t_conv=1.0, nlist=[3, 5, 10, 20],
+        return dict(quick=True, reps=1, kappas=[1e-2, 1e2, 1e6, 1e10], t_conv=0.5, nlist=[3, 5, 10, 20],
                     nref=30, ncheck=20, modal_n=[5, 10, 20], conv_step=1e-4, check_step=5e-5, vh_step=1e-4,
-                    hist_n=[5, 10, 20], vh_n=[5, 8, 20], n_periods_count=4,
+                    hist_n=[5, 10, 20], vh_n=[5, 20], n_periods_count=4,
                     rt_n=[5, 20], ref_n=[5], ref_rtol=1e-13, ref_check_rtol=1e-12, wp_rtols=[1e-6, 1e-10])
     return dict(quick=False, reps=5, kappas=[10.0 ** e for e in range(-2, 13)], t_conv=4.0,
                 nlist=[2, 3, 4, 5, 6, 8, 10, 12, 15, 20, 25, 30, 40, 60], nref=80, ncheck=60,

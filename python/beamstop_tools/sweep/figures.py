@@ -40,6 +40,7 @@ from .engine import dask_client, run_sweep  # noqa: E402
 from .fmu import read_fmu  # noqa: E402
 from .store import read_points  # noqa: E402
 from .. import ROOT, engine  # noqa: E402
+from ..report import common  # noqa: E402
 from ..report.common import QUICK_NOTE  # noqa: E402
 
 FMU = ROOT / "target" / "fmu"
@@ -73,11 +74,9 @@ def sweep(client, name, fmu, params, sets, discard, record, **kw):
 
 
 def write_csv(name, rows, columns):
-    with open(OUT / f"{name}.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(columns)
-        for r in rows:
-            w.writerow([("" if r[c] is None else (f"{r[c]:.10g}" if isinstance(r[c], float) else r[c])) for c in columns])
+    """OUT/NAME.csv: floats to 10 digits."""
+    common.write_csv(OUT / f"{name}.csv", columns, rows,
+                     lambda x: "" if x is None else (f"{x:.10g}" if isinstance(x, float) else x))
 
 
 def write_md(name, title, command, statements, meta, wall):
