@@ -53,8 +53,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 from .. import engine  # noqa: E402
-from .common import (LONG_RUN, MATCH, QUICK_NOTE, SOLVERS, equal_error_table, fastest_within, fnum,  # noqa: E402
-                     log, match_onsets, md_table, peer_arguments, scipy_ladder, work_precision_panel)
+from .common import QUICK_NOTE, fnum, log, md_table  # noqa: E402
+from .peers import (LONG_RUN, MATCH, SOLVERS, equal_error_table, fastest_within, match_onsets,  # noqa: E402
+                    peer_arguments, scipy_ladder, work_precision_panel)
 
 SCIPY_TOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 SCIPY_TOLS_QUICK = (1e-4,)
