@@ -1,6 +1,9 @@
 # Sourced by the other scripts: creates .venv with the pinned requirements
-# and the project's package beamstop_tools (python/, installed editable), again
-# whenever requirements.txt or python/pyproject.toml changes, and activates it.
+# and the project's package beamstop_tools (python/, installed editable, with
+# its console scripts beamstop-sweep, beamstop-orbits and beamstop-report),
+# again whenever requirements.txt or python/pyproject.toml changes, and
+# activates it. The package's own dependencies (python/pyproject.toml) are
+# requirements.txt's pins, installed here first (hence --no-deps).
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 venv="$root/.venv"
 stamp="$venv/.requirements"
