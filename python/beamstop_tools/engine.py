@@ -7,8 +7,10 @@ its FMUs (an FMI 2.0 session through fmpy).
   else the working directory or a folder above it, else the checkout this
   package is installed editable from.
 - `beamstop(args)`: target/release/beamstop (or $BEAMSTOP_BIN) in the root.
-- `cargo_run(target, args)`: `cargo run --release --quiet TARGET -- ARGS` in
-  the root; `example(name, args)` for `--example NAME`.
+- `example(name, args)`: examples/NAME.rs, built by cargo once per process,
+  then run from target/release/examples; `cargo_run(target, args)`:
+  `cargo run --release --quiet TARGET -- ARGS` in the root (the coupling
+  example's controller FMU).
 - `Fmu(path)` / `Session(fmu, name)`: an FMU extracted and read once, and
   instances of it: instantiate (with an optional logger), start (setup,
   initialisation with parameter values), step, read by name, close.
