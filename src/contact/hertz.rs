@@ -19,7 +19,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{closing, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, LawOutput, ParamSpec, PhaseTerm, Switch, Watch};
+use super::{closing, ContactDamping, COMPLIANT_OUTPUTS, COMPLIANT_STATES, Contact, ContactLaw, LawOutput, ParamSpec, PhaseTerm, Switch, Watch};
 use crate::solve::Jet;
 use crate::units::{Exponent, Unit};
 
@@ -38,8 +38,8 @@ pub struct Hertz {
     /// `C` of DWZ's linear damping `C p'` (N s/m).
     #[serde(rename = "C", default)]
     pub damping_coefficient: f64,
-    #[serde(default, skip_serializing_if = "HertzDamping::is_linear")]
-    pub damping: HertzDamping,
+    #[serde(default, skip_serializing_if = "ContactDamping::is_linear")]
+    pub damping: ContactDamping,
     /// The restitution the hysteretic damping aims at.
     #[serde(rename = "e", default = "one")]
     pub restitution: f64,
@@ -47,25 +47,6 @@ pub struct Hertz {
 
 fn one() -> f64 {
     1.0
-}
-
-/// The damping term of a Hertz stop.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum HertzDamping {
-    /// `C p'` (DWZ): the force jumps by `C v0` at the onset.
-    #[default]
-    Linear,
-    /// `K p^1.5 * 3 (1 - e) / 2 * p' / v0`.
-    HuntCrossley,
-    /// `K p^1.5 * 3 (1 - e^2) / 4 * p' / v0`.
-    LankaraniNikravesh,
-}
-
-impl HertzDamping {
-    pub fn is_linear(&self) -> bool {
-        *self == HertzDamping::Linear
-    }
 }
 
 const STIFFNESS: ParamSpec = ParamSpec {
@@ -95,28 +76,13 @@ impl Hertz {
         },
     ];
 
-    /// `p'` factor of the hysteretic damping (`alpha / v0`), 0 without.
-    fn hysteresis(&self, onset_speed: f64) -> f64 {
-        let e = self.restitution;
-        let alpha = match self.damping {
-            HertzDamping::Linear => return 0.0,
-            HertzDamping::HuntCrossley => 1.5 * (1.0 - e),
-            HertzDamping::LankaraniNikravesh => 0.75 * (1.0 - e * e),
-        };
-        if onset_speed > 0.0 {
-            alpha / onset_speed
-        } else {
-            0.0
-        }
-    }
-
     /// The unclamped force `K p^1.5 + damping` at penetration `p > 0`, rate
     /// `pd`, and its derivatives with respect to `p` and `pd`.
     pub fn raw_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
         let pp = p.max(0.0);
         let root = pp.sqrt();
         let spring = self.stiffness * pp * root;
-        let h = self.hysteresis(onset_speed);
+        let h = self.damping.hysteresis(self.restitution, onset_speed);
         let c = self.damping_coefficient * self.damping.is_linear() as u8 as f64;
         let f = spring * (1.0 + h * pd) + c * pd;
         let df_dp = 1.5 * self.stiffness * root * (1.0 + h * pd);
@@ -132,21 +98,16 @@ impl Hertz {
 }
 
 impl ContactLaw for Hertz {
-    fn parameters(&self) -> &'static [ParamSpec] {
+    fn parameters(&self) -> Vec<ParamSpec> {
         match self.damping {
-            HertzDamping::Linear => Self::LINEAR,
+            ContactDamping::Linear => Self::LINEAR,
             _ => Self::HYSTERETIC,
         }
+        .to_vec()
     }
 
     fn validate(&self, path: &str) -> Result<(), String> {
-        if !self.damping.is_linear() && self.damping_coefficient != 0.0 {
-            return Err(format!(
-                "{path}.C = {:?}: only the linear damping takes C (the {:?} damping takes e); allowed value 0",
-                self.damping_coefficient, self.damping
-            ));
-        }
-        Ok(())
+        self.damping.check_coefficient(path, self.damping_coefficient)
     }
 
     fn states(&self) -> &'static [Contact] {
@@ -199,6 +160,12 @@ impl ContactLaw for Hertz {
         Hertz::raw_force(self, p, pd, onset_speed)
     }
 
+    /// `K p^1.5`'s onset and end (a linear damping's kink at a push ending
+    /// inside the surface is taken at the same fraction).
+    fn corner_exponent(&self) -> f64 {
+        1.5
+    }
+
     fn spring_force(&self, p: f64) -> (f64, f64) {
         let pp = p.max(0.0);
         (self.stiffness * pp * pp.sqrt(), 1.5 * self.stiffness * pp.sqrt())
@@ -235,7 +202,7 @@ mod tests {
 
     #[test]
     fn derivatives_match_finite_differences() {
-        for damping in [HertzDamping::Linear, HertzDamping::HuntCrossley, HertzDamping::LankaraniNikravesh] {
+        for damping in [ContactDamping::Linear, ContactDamping::HuntCrossley, ContactDamping::LankaraniNikravesh] {
             let law = Hertz { stiffness: 3e9, damping_coefficient: 40.0, damping, restitution: 0.6 };
             let (p, pd, v0) = (2e-5, -0.3, 0.8);
             let (_, dp, dpd) = law.raw_force(p, pd, v0);
@@ -249,11 +216,11 @@ mod tests {
 
     #[test]
     fn hysteretic_force_is_continuous_at_the_onset() {
-        for damping in [HertzDamping::HuntCrossley, HertzDamping::LankaraniNikravesh] {
+        for damping in [ContactDamping::HuntCrossley, ContactDamping::LankaraniNikravesh] {
             let law = Hertz { stiffness: 1e9, damping_coefficient: 0.0, damping, restitution: 0.5 };
             assert_eq!(law.raw_force(0.0, 1.0, 1.0).0, 0.0);
         }
-        let linear = Hertz { stiffness: 1e9, damping_coefficient: 10.0, damping: HertzDamping::Linear, restitution: 1.0 };
+        let linear = Hertz { stiffness: 1e9, damping_coefficient: 10.0, damping: ContactDamping::Linear, restitution: 1.0 };
         assert_eq!(linear.raw_force(0.0, 1.0, 1.0).0, 10.0);
     }
 }

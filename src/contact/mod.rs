@@ -22,7 +22,7 @@ pub mod spring_dashpot;
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
-pub use hertz::{Hertz, HertzDamping};
+pub use hertz::Hertz;
 pub use impact::{apply_impact, energy_loss, ImpactRow};
 pub use mode_transfer::{ContactMethod, ModeTransfer, TransferDamping};
 pub use restitution::Restitution;
@@ -204,7 +204,7 @@ pub struct LawOutput {
 /// one does, and what the stop pushes with, stores and dissipates.
 pub trait ContactLaw: Send + Sync + std::fmt::Debug {
     /// Its real parameters, in order.
-    fn parameters(&self) -> &'static [ParamSpec];
+    fn parameters(&self) -> Vec<ParamSpec>;
     /// What it needs beyond each parameter's own range (a field that one
     /// variant of the law takes and another does not); the error names
     /// the field, with `path` the law's place in the scene.
@@ -272,6 +272,14 @@ pub trait ContactLaw: Send + Sync + std::fmt::Debug {
     fn dashpot(&self) -> Option<f64> {
         None
     }
+    /// The exponent `a` of the force's least smooth change at the start or
+    /// end of a push, `F ~ t^a` there (integrated laws: Hertz's onset
+    /// grows as `t^1.5`, a force reaching zero inside the surface has a
+    /// kink, `a = 1`); an integrated phase's steps onto such a corner
+    /// shrink to `tol^(1/(a+2))` of the contact's scale.
+    fn corner_exponent(&self) -> f64 {
+        1.0
+    }
     /// Elastic energy stored at penetration `p` in `contact`.
     fn stored_energy(&self, contact: Contact, p: f64) -> f64 {
         let _ = (contact, p);
@@ -328,6 +336,53 @@ impl std::ops::Deref for Law {
             Law::SpringDashpot(l) => l,
             Law::Hertz(l) => l,
         }
+    }
+}
+
+/// The damping of a compliant stop whose spring is `K p^n` (Hertz, power
+/// law): DWZ's linear `C p'`, or a hysteretic one that vanishes with the
+/// penetration and so keeps the force continuous at the onset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactDamping {
+    /// `C p'` (DWZ): the force jumps by `C v0` at the onset.
+    #[default]
+    Linear,
+    /// Hunt & Crossley (HC75) as calibrated by Marhefka & Orin (MO99):
+    /// `K p^n * 3 (1 - e) / 2 * p' / v0`.
+    HuntCrossley,
+    /// Lankarani & Nikravesh (LN90): `K p^n * 3 (1 - e^2) / 4 * p' / v0`.
+    LankaraniNikravesh,
+}
+
+impl ContactDamping {
+    pub fn is_linear(&self) -> bool {
+        *self == ContactDamping::Linear
+    }
+
+    /// The hysteretic damping's factor of `p'` (`alpha / v0`, with `v0`
+    /// the approach speed at the onset and `e` the restitution aimed at),
+    /// 0 for the linear damping.
+    pub fn hysteresis(self, e: f64, onset_speed: f64) -> f64 {
+        let alpha = match self {
+            ContactDamping::Linear => return 0.0,
+            ContactDamping::HuntCrossley => 1.5 * (1.0 - e),
+            ContactDamping::LankaraniNikravesh => 0.75 * (1.0 - e * e),
+        };
+        if onset_speed > 0.0 {
+            alpha / onset_speed
+        } else {
+            0.0
+        }
+    }
+
+    /// Only the linear damping takes a coefficient `C` (`path`: the law's
+    /// place in the scene).
+    pub fn check_coefficient(self, path: &str, c: f64) -> Result<(), String> {
+        if !self.is_linear() && c != 0.0 {
+            return Err(format!("{path}.C = {c:?}: only the linear damping takes C (the {self:?} damping takes e); allowed value 0"));
+        }
+        Ok(())
     }
 }
 

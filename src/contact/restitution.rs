@@ -90,8 +90,8 @@ const OUTPUTS: &[LawOutput] = &[
 ];
 
 impl ContactLaw for Restitution {
-    fn parameters(&self) -> &'static [ParamSpec] {
-        Self::PARAMETERS
+    fn parameters(&self) -> Vec<ParamSpec> {
+        Self::PARAMETERS.to_vec()
     }
 
     fn states(&self) -> &'static [Contact] {

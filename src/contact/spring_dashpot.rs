@@ -53,8 +53,8 @@ impl SpringDashpot {
 }
 
 impl ContactLaw for SpringDashpot {
-    fn parameters(&self) -> &'static [ParamSpec] {
-        Self::PARAMETERS
+    fn parameters(&self) -> Vec<ParamSpec> {
+        Self::PARAMETERS.to_vec()
     }
 
     fn validate(&self, path: &str) -> Result<(), String> {

@@ -72,6 +72,10 @@ pub struct CollocationOptions {
     pub v_scale: f64,
     pub h_init: f64,
     pub h_max: f64,
+    /// The last piece of a step onto a corner (a force ending as `t^a`),
+    /// as a fraction of the step: `tol^(1/(a+2))` carries the corner's
+    /// error to the tolerance ([`ForceCollocation::single_step`]).
+    pub corner_fraction: f64,
 }
 
 /// Gauss-Legendre nodes on `[0, 1]` and the polynomials built on them.
@@ -489,9 +493,9 @@ impl ForceCollocation {
         let order = (self.scheme.s + 2) as f64;
         let (mut t, mut y) = (t0, y0.clone());
         // Pieces shrinking fourfold toward a corner at t1: where a force
-        // ends there as p^1.5 (a separation), the last, tol^(2/7) of the
-        // interval long, carries the corner's error to the tolerance.
-        let smallest = if corner { self.options.tol.powf(2.0 / 7.0) } else { 1.0 };
+        // ends there as t^a (a separation), the last, tol^(1/(a+2)) of
+        // the interval long, carries the corner's error to the tolerance.
+        let smallest = if corner { self.options.corner_fraction } else { 1.0 };
         let mut remaining = 1.0;
         while remaining / GRADING > smallest && t1 - t > 0.0 {
             // A size of the ladder, whose kernels recur from switch to switch.
@@ -1067,7 +1071,7 @@ mod tests {
         let d = DVector::from_vec(vec![1.0, -0.8, 0.6]);
         let law = Hertzian { k: 3e4, c: 0.3 };
         let y0 = DVector::from_vec(vec![0.01, 0.0, 0.0, 0.5, 0.1, -0.2, 0.0, 0.0]);
-        let options = CollocationOptions { tol: 1e-10, q_scale: 0.01, v_scale: 0.5, h_init: 1e-4, h_max: 0.05 };
+        let options = CollocationOptions { tol: 1e-10, q_scale: 0.01, v_scale: 0.5, h_init: 1e-4, h_max: 0.05, corner_fraction: 1e-10f64.powf(2.0 / 7.0) };
         let mut col = ForceCollocation::new(dynamics, vec![PointContact { d: d.clone(), gap: 0.0 }], 0.0, y0.clone(), options);
         let t_end = 0.3;
         while col.t() < t_end {

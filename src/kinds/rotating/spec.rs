@@ -383,7 +383,7 @@ impl RotatingSpec {
             check(ANY, "surface.point[0]", s.point[0])?;
             check(ANY, "surface.point[1]", s.point[1])?;
             if s.law.rigid() {
-                return fail("surface.law: a rigid law cannot be integrated; give a compliant one (hertz, spring_dashpot)".into());
+                return fail("surface.law: a rigid law cannot be integrated; give a compliant one".into());
             }
             s.law.validate("surface.law").map_err(|m| format!("rotating scene '{}': {m}", self.name))?;
             let values = serde_json::to_value(&s.law).expect("a law always serialises");
@@ -436,7 +436,7 @@ mod tests {
         let s = RotatingSpec::from_json(DWZ_SCENE).unwrap();
         assert_eq!(s.hub, HubDrive::Torque);
         assert_eq!(s.order, OrderSpec::First);
-        assert!(matches!(&s.surface.as_ref().unwrap().law, Law::Hertz(h) if h.damping == crate::contact::HertzDamping::LankaraniNikravesh));
+        assert!(matches!(&s.surface.as_ref().unwrap().law, Law::Hertz(h) if h.damping == crate::contact::ContactDamping::LankaraniNikravesh));
         let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"hub_inertia\": 0.05", "\"hub_inertia\": 0.0")).unwrap_err();
         assert!(e.contains("hub_inertia = 0.0") && e.contains("(0, 289613333333.3333]") && e.contains("near-singular"), "{e}");
         let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"K\": 7.6e9", "\"K\": -1")).unwrap_err();

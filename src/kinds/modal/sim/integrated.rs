@@ -252,10 +252,14 @@ impl Simulation {
         let q_scale = scale_q.max(self.state.anchor.q.amax()).max(f64::MIN_POSITIVE);
         let v_scale = (q_scale * slowest).max(scale_v).max(self.state.anchor.qd.amax()).max(f64::MIN_POSITIVE);
         let points = phase.contacts.iter().map(|c| PointContact { d: &c.geometry.w * c.geometry.side, gap: c.geometry.gap }).collect();
-        // An onset's force grows as t^1.5: a first step of tol^(2/7) of the
-        // contact's scale carries that corner's error to the tolerance.
-        let h_init = quarter * tol.powf(2.0 / 7.0).min(0.25);
-        let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: 16.0 * quarter };
+        // An onset's force grows as t^a (the law's corner exponent; Hertz:
+        // 1.5): a first step of tol^(1/(a+2)) of the contact's scale
+        // carries that corner's error to the tolerance, and so does the
+        // last piece of a step onto a separation.
+        let corner = phase.contacts.iter().map(|c| c.law.corner_exponent()).fold(f64::INFINITY, f64::min);
+        let corner_fraction = tol.powf(1.0 / (corner + 2.0));
+        let h_init = quarter * corner_fraction.min(0.25);
+        let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: 16.0 * quarter, corner_fraction };
         let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
         if let Some(super::Segment::Integrated(previous)) = &self.spare {
             solver.adopt_kernels(&previous.solver);
