@@ -16,6 +16,7 @@
 pub mod hertz;
 pub mod impact;
 pub mod mode_transfer;
+pub mod power_law;
 pub mod restitution;
 pub mod spring_dashpot;
 
@@ -25,6 +26,7 @@ use serde::{Deserialize, Serialize};
 pub use hertz::Hertz;
 pub use impact::{apply_impact, energy_loss, ImpactRow};
 pub use mode_transfer::{ContactMethod, ModeTransfer, TransferDamping};
+pub use power_law::PowerLaw;
 pub use restitution::Restitution;
 pub use spring_dashpot::SpringDashpot;
 
@@ -325,6 +327,7 @@ pub enum Law {
     Restitution(Restitution),
     SpringDashpot(SpringDashpot),
     Hertz(Hertz),
+    PowerLaw(PowerLaw),
 }
 
 impl std::ops::Deref for Law {
@@ -335,6 +338,7 @@ impl std::ops::Deref for Law {
             Law::Restitution(l) => l,
             Law::SpringDashpot(l) => l,
             Law::Hertz(l) => l,
+            Law::PowerLaw(l) => l,
         }
     }
 }
