@@ -26,6 +26,7 @@ pub mod oscillator;
 pub mod phi;
 pub mod quadrature;
 pub mod radau;
+pub mod regula_falsi;
 pub mod switch;
 
 /// An integrated phase (the rotating beam, a nonlinear stop's contact)
