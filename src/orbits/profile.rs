@@ -7,6 +7,7 @@ use nalgebra::DVector;
 use super::shooting::start_from;
 use crate::component::Component;
 use crate::kind::{Clearance, EventClass, Run};
+use crate::solve::regula_falsi::RegulaFalsi;
 
 /// An orbit over one period.
 #[derive(Clone, Debug, PartialEq)]
@@ -135,38 +136,19 @@ fn clearance_at(run: &dyn Run, i: usize, t: f64) -> Result<Clearance, String> {
 /// Where `rate` of stop `i`'s clearance changes sign in `[t_a, t_b]` (no
 /// event between): regula falsi, Illinois variant.
 fn rate_zero(run: &dyn Run, i: usize, t_a: f64, t_b: f64, rate: fn(&Clearance) -> f64) -> Result<f64, String> {
-    let (mut lo, mut hi) = (t_a, t_b);
-    let (mut f_lo, mut f_hi) = (rate(&clearance_at(run, i, lo)?), rate(&clearance_at(run, i, hi)?));
-    let mut side = 0;
+    let value = |t: f64| Ok::<_, String>((t, rate(&clearance_at(run, i, t)?)));
+    let mut bracket = RegulaFalsi::new(value(t_a)?, value(t_b)?);
     for _ in 0..100 {
+        let (lo, hi) = (bracket.lo, bracket.hi);
         if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(lo.abs()) {
             break;
         }
-        let mut t = hi - f_hi * (hi - lo) / (f_hi - f_lo);
-        if !(t > lo && t < hi) {
-            t = 0.5 * (lo + hi);
-        }
-        let f = rate(&clearance_at(run, i, t)?);
-        if f == 0.0 {
+        let (t, f) = value(bracket.next(false))?;
+        if bracket.take(t, f).is_none() {
             return Ok(t);
         }
-        if (f < 0.0) == (f_lo < 0.0) {
-            lo = t;
-            f_lo = f;
-            if side == -1 {
-                f_hi *= 0.5;
-            }
-            side = -1;
-        } else {
-            hi = t;
-            f_hi = f;
-            if side == 1 {
-                f_lo *= 0.5;
-            }
-            side = 1;
-        }
     }
-    Ok(if f_lo.abs() < f_hi.abs() { lo } else { hi })
+    Ok(if bracket.f_lo.abs() < bracket.f_hi.abs() { bracket.lo } else { bracket.hi })
 }
 
 fn smooth_minimum(run: &dyn Run, i: usize, t_a: f64, t_b: f64) -> Result<Approach, String> {

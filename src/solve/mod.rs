@@ -20,11 +20,13 @@ pub mod forcing;
 pub mod free;
 pub mod functional;
 pub mod lti;
+pub mod lu;
 pub mod modal_state;
 pub mod oscillator;
 pub mod phi;
 pub mod quadrature;
 pub mod radau;
+pub mod regula_falsi;
 pub mod switch;
 
 /// An integrated phase (the rotating beam, a nonlinear stop's contact)

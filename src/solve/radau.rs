@@ -28,6 +28,8 @@
 use nalgebra::{DMatrix, DVector};
 use std::fmt;
 
+use super::lu::{Lu, Order};
+use super::C64;
 
 /// The problem `y' = f(t, y)`.
 pub trait ImplicitSystem {
@@ -167,110 +169,6 @@ fn finite(v: &DVector<f64>) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
-/// In-place LU with partial pivoting of a column-major square matrix.
-fn lu_factor(a: &mut DMatrix<f64>, piv: &mut [usize]) -> bool {
-    let m = a.nrows();
-    let s = a.as_mut_slice();
-    for k in 0..m {
-        let p = (k..m).fold(k, |p, i| if s[i + k * m].abs() > s[p + k * m].abs() { i } else { p });
-        let amax = s[p + k * m].abs();
-        if !(amax > 0.0 && amax.is_finite()) {
-            return false;
-        }
-        piv[k] = p;
-        (0..m).for_each(|j| s.swap(k + j * m, p + j * m));
-        let inv = 1.0 / s[k + k * m];
-        s[k * m + k + 1..(k + 1) * m].iter_mut().for_each(|x| *x *= inv);
-        for j in k + 1..m {
-            let (left, right) = s.split_at_mut(j * m);
-            let (ck, cj) = (&left[k * m..(k + 1) * m], &mut right[..m]);
-            let akj = cj[k];
-            (k + 1..m).for_each(|i| cj[i] -= ck[i] * akj);
-        }
-    }
-    true
-}
-
-fn lu_solve(a: &DMatrix<f64>, piv: &[usize], b: &mut [f64]) {
-    let (m, s) = (a.nrows(), a.as_slice());
-    (0..m).for_each(|k| b.swap(k, piv[k]));
-    for j in 0..m {
-        let bj = b[j];
-        (j + 1..m).for_each(|i| b[i] -= s[i + j * m] * bj);
-    }
-    for j in (0..m).rev() {
-        b[j] /= s[j + j * m];
-        let bj = b[j];
-        (0..j).for_each(|i| b[i] -= s[i + j * m] * bj);
-    }
-}
-
-/// In-place complex LU with partial pivoting; real and imaginary parts in
-/// two column-major square matrices.
-fn lu_factor_c(ar: &mut DMatrix<f64>, ai: &mut DMatrix<f64>, piv: &mut [usize]) -> bool {
-    let m = ar.nrows();
-    let (r, q) = (ar.as_mut_slice(), ai.as_mut_slice());
-    for k in 0..m {
-        let mag = |i: usize| r[i + k * m].abs() + q[i + k * m].abs();
-        let p = (k..m).fold(k, |p, i| if mag(i) > mag(p) { i } else { p });
-        let amax = mag(p);
-        if !(amax > 0.0 && amax.is_finite()) {
-            return false;
-        }
-        piv[k] = p;
-        for j in 0..m {
-            r.swap(k + j * m, p + j * m);
-            q.swap(k + j * m, p + j * m);
-        }
-        let (pr, pi) = (r[k + k * m], q[k + k * m]);
-        let d = pr * pr + pi * pi;
-        let (ir, ii) = (pr / d, -pi / d);
-        for i in k + 1..m {
-            let (xr, xi) = (r[i + k * m], q[i + k * m]);
-            r[i + k * m] = xr * ir - xi * ii;
-            q[i + k * m] = xr * ii + xi * ir;
-        }
-        for j in k + 1..m {
-            let (rl, rr) = r.split_at_mut(j * m);
-            let (ql, qr) = q.split_at_mut(j * m);
-            let (rk, rj, qk, qj) = (&rl[k * m..(k + 1) * m], &mut rr[..m], &ql[k * m..(k + 1) * m], &mut qr[..m]);
-            let (br, bi) = (rj[k], qj[k]);
-            for i in k + 1..m {
-                rj[i] -= rk[i] * br - qk[i] * bi;
-                qj[i] -= rk[i] * bi + qk[i] * br;
-            }
-        }
-    }
-    true
-}
-
-fn lu_solve_c(ar: &DMatrix<f64>, ai: &DMatrix<f64>, piv: &[usize], br: &mut [f64], bi: &mut [f64]) {
-    let (m, r, q) = (ar.nrows(), ar.as_slice(), ai.as_slice());
-    for k in 0..m {
-        br.swap(k, piv[k]);
-        bi.swap(k, piv[k]);
-    }
-    for j in 0..m {
-        let (xr, xi) = (br[j], bi[j]);
-        for i in j + 1..m {
-            let (lr, li) = (r[i + j * m], q[i + j * m]);
-            br[i] -= lr * xr - li * xi;
-            bi[i] -= lr * xi + li * xr;
-        }
-    }
-    for j in (0..m).rev() {
-        let (pr, pi) = (r[j + j * m], q[j + j * m]);
-        let d = pr * pr + pi * pi;
-        let (xr, xi) = ((br[j] * pr + bi[j] * pi) / d, (bi[j] * pr - br[j] * pi) / d);
-        (br[j], bi[j]) = (xr, xi);
-        for i in 0..j {
-            let (ur, ui) = (r[i + j * m], q[i + j * m]);
-            br[i] -= ur * xr - ui * xi;
-            bi[i] -= ur * xi + ui * xr;
-        }
-    }
-}
-
 /// Radau IIA integrator; the system is passed to each call, so the caller
 /// keeps it (and may change it at an event, then `restart`).
 #[derive(Clone, Debug)]
@@ -294,12 +192,9 @@ pub struct Radau {
     jac_fresh: bool,
     want_jac: bool,
     /// LU of `GAMMA/h I - J` (`= I/(h gamma0) - J`, also the error filter)
-    /// and of `(ALPHA + i BETA)/h I - J` (real and imaginary parts), for step `lu_h`.
-    e2r: DMatrix<f64>,
-    e2i: DMatrix<f64>,
-    piv2: Vec<usize>,
-    e1: DMatrix<f64>,
-    piv1: Vec<usize>,
+    /// and of `(ALPHA + i BETA)/h I - J`, for step `lu_h`.
+    e1: Lu<f64>,
+    e2: Lu<C64>,
     lu_h: f64,
     /// Stage increments `Z`, `F(Z)`, residual / increment, work (all `3n`).
     z: DVector<f64>,
@@ -307,6 +202,7 @@ pub struct Radau {
     dz: DVector<f64>,
     w3: DVector<f64>,
     /// Work (all `n`).
+    w23: Vec<C64>,
     ytmp: DVector<f64>,
     ftmp: DVector<f64>,
     scal: DVector<f64>,
@@ -364,12 +260,10 @@ impl Radau {
             n, rtol_u, atol_u, rtol, atol, t: t0, y: y0.clone(), f0: v.clone(), h: 0.0,
             jac: DMatrix::zeros(m, m),
             jac_valid: false, jac_fresh: false, want_jac: false,
-            e2r: DMatrix::zeros(m, m),
-            e2i: DMatrix::zeros(m, m),
-            piv2: vec![0; m],
-            e1: DMatrix::zeros(m, m),
-            piv1: vec![0; m],
+            e1: Lu::default(),
+            e2: Lu::default(),
             lu_h: f64::NAN,
+            w23: vec![C64::new(0.0, 0.0); n],
             z: v3.clone(), fz: v3.clone(), dz: v3.clone(), w3: v3.clone(), cd: v3,
             ytmp: v.clone(), ftmp: v.clone(), scal: v.clone(), f2: v.clone(), err_v: v.clone(), yc: v,
             dense_span: None, first: true, reject: false, faccon: 1.0, theta: 1.0, hacc: 0.0, erracc: 0.0, attempts: 0,
@@ -474,16 +368,15 @@ impl Radau {
     fn factor(&mut self, h: f64) -> bool {
         let n = self.n;
         self.stats.lu_decompositions += 1;
-        self.e1.copy_from(&self.jac);
-        self.e1.neg_mut();
-        self.e2r.copy_from(&self.e1);
-        self.e2i.fill(0.0);
-        for i in 0..n {
-            self.e1[(i, i)] += GAMMA / h;
-            self.e2r[(i, i)] += ALPHA / h;
-            self.e2i[(i, i)] = BETA / h;
+        let (e1, e2) = (self.e1.matrix_mut(n), self.e2.matrix_mut(n));
+        for ((x, z), j) in e1.iter_mut().zip(e2.iter_mut()).zip(self.jac.iter()) {
+            (*x, *z) = (-j, C64::new(-j, 0.0));
         }
-        let ok = lu_factor(&mut self.e1, &mut self.piv1) && lu_factor_c(&mut self.e2r, &mut self.e2i, &mut self.piv2);
+        for i in 0..n {
+            e1[(i, i)] += GAMMA / h;
+            e2[(i, i)] = C64::new(e2[(i, i)].re + ALPHA / h, BETA / h);
+        }
+        let ok = self.e1.factor(Order::Columns) && self.e2.factor(Order::Columns);
         self.lu_h = if ok { h } else { f64::NAN };
         ok
     }
@@ -501,8 +394,14 @@ impl Radau {
         }
         let (w1, w23) = self.w3.as_mut_slice().split_at_mut(n);
         let (w2, w3) = w23.split_at_mut(n);
-        lu_solve(&self.e1, &self.piv1, w1);
-        lu_solve_c(&self.e2r, &self.e2i, &self.piv2, w2, w3);
+        self.e1.solve(w1);
+        for (z, (re, im)) in self.w23.iter_mut().zip(w2.iter().zip(w3.iter())) {
+            *z = C64::new(*re, *im);
+        }
+        self.e2.solve(&mut self.w23);
+        for (z, (re, im)) in self.w23.iter().zip(w2.iter_mut().zip(w3.iter_mut())) {
+            (*re, *im) = (z.re, z.im);
+        }
         for k in 0..n {
             let w = [self.w3[k], self.w3[n + k], self.w3[2 * n + k]];
             for i in 0..3 {
@@ -618,7 +517,7 @@ impl Radau {
 
     /// `err_v <- (GAMMA/h I - J)^-1 err_v`.
     fn filter_error(&mut self) {
-        lu_solve(&self.e1, &self.piv1, self.err_v.as_mut_slice());
+        self.e1.solve(self.err_v.as_mut_slice());
     }
 
     /// RADAU5's filtered embedded estimate (ESTRAD), RMS-scaled.

@@ -7,6 +7,7 @@ use nalgebra::{DMatrix, DVector};
 use super::corrector::Walker;
 use super::grazing::grazing_measure;
 use super::{Point, Special, SpecialKind};
+use crate::solve::regula_falsi::{End, RegulaFalsi};
 
 /// A special point located, and what happens there.
 type Located = (Point, String);
@@ -119,51 +120,31 @@ impl Walker {
         let ua = self.scaled(&a.orbit.state, a.param);
         let ub = self.scaled(&b.orbit.state, b.param);
         let span = (&ub - &ua).dot(tangent_a);
-        let (mut s_lo, mut s_hi) = (0.0, span);
-        let (mut f_lo, mut f_hi) =
-            (psi(a).ok_or("the test function is not defined at the first point")?, psi(b).ok_or("the test function is not defined at the second point")?);
+        let mut bracket = RegulaFalsi::new(
+            (0.0, psi(a).ok_or("the test function is not defined at the first point")?),
+            (span, psi(b).ok_or("the test function is not defined at the second point")?),
+        );
         let (mut best_lo, mut best_hi) = (a.clone(), b.clone());
         let scale = a.param.abs().max(self.range.1 - self.range.0);
-        let mut side = 0;
         for _ in 0..60 {
-            if (best_hi.param - best_lo.param).abs() <= if bisect { 1e-8 } else { 1e-10 } * scale || (s_hi - s_lo).abs() <= 1e-14 {
+            if (best_hi.param - best_lo.param).abs() <= if bisect { 1e-8 } else { 1e-10 } * scale || (bracket.hi - bracket.lo).abs() <= 1e-14 {
                 break;
             }
-            let mut s = if bisect { 0.5 * (s_lo + s_hi) } else { s_hi - f_hi * (s_hi - s_lo) / (f_hi - f_lo) };
-            if !(s > s_lo.min(s_hi) && s < s_lo.max(s_hi) && s.is_finite()) {
-                s = 0.5 * (s_lo + s_hi);
-            }
+            let s = bracket.next(bisect);
             let u_pred = &ua + tangent_a * s;
             let (point, _, _) = self.correct(&u_pred, tangent_a, periods, Some(a))?;
-            match psi(&point) {
+            match psi(&point).map(|f| bracket.take(s, f)) {
                 None => {
                     // Neither side's sequence: shrink towards the first point.
-                    s_hi = s;
+                    bracket.shrink_hi(s);
                     best_hi = point;
-                    side = 0;
                 }
-                Some(0.0) => return Ok(point),
-                Some(f) if (f < 0.0) == (f_lo < 0.0) => {
-                    s_lo = s;
-                    f_lo = f;
-                    best_lo = point;
-                    if side == -1 {
-                        f_hi *= 0.5;
-                    }
-                    side = -1;
-                }
-                Some(f) => {
-                    s_hi = s;
-                    f_hi = f;
-                    best_hi = point;
-                    if side == 1 {
-                        f_lo *= 0.5;
-                    }
-                    side = 1;
-                }
+                Some(None) => return Ok(point),
+                Some(Some(End::Lo)) => best_lo = point,
+                Some(Some(End::Hi)) => best_hi = point,
             }
         }
-        Ok(if f_lo.abs() <= f_hi.abs() { best_lo } else { best_hi })
+        Ok(if bracket.f_lo.abs() <= bracket.f_hi.abs() { best_lo } else { best_hi })
     }
 }
 

@@ -1,0 +1,172 @@
+//! The dense output: the exact motion under the last step's force
+//! polynomials, remembered per step for the switch locator's samples.
+
+use nalgebra::DVector;
+
+use crate::solve::modal_state::ModalState;
+use crate::solve::phi::phi_columns;
+use super::kernels::GRID;
+use super::scheme::{integral, taylor_shift};
+use super::{ForceCollocation, Step};
+
+/// Dense states remembered per step: the switch locator's samples and
+/// midpoints.
+const MEMO: usize = 48;
+
+/// Dense states by time, the oldest overwritten first; cleared without
+/// freeing (a step's worth of states is refilled every step).
+#[derive(Clone, Debug, Default)]
+pub(super) struct Memo {
+    slots: Vec<(f64, DVector<f64>)>,
+    next: usize,
+}
+
+impl Memo {
+    pub(super) fn clear(&mut self) {
+        self.slots.iter_mut().for_each(|s| s.0 = f64::NAN);
+        self.next = 0;
+    }
+
+    fn find(&self, t: f64) -> Option<&DVector<f64>> {
+        self.slots.iter().find(|(tm, _)| *tm == t).map(|(_, y)| y)
+    }
+
+    /// The storage for the state at `t` (every entry set by the caller).
+    fn slot(&mut self, t: f64, dim: usize) -> &mut DVector<f64> {
+        let k = self.next;
+        self.next = (k + 1) % MEMO;
+        if k == self.slots.len() {
+            self.slots.push((t, DVector::zeros(dim)));
+        }
+        let slot = &mut self.slots[k];
+        slot.0 = t;
+        if slot.1.len() != dim {
+            slot.1 = DVector::zeros(dim);
+        }
+        &mut slot.1
+    }
+}
+
+impl ForceCollocation {
+    /// The integrated state at `t` in the last step under its
+    /// polynomials (the step's start before the first step: `None`).
+    pub fn dense(&self, t: f64, out: &mut DVector<f64>) -> Option<()> {
+        let l = self.last.as_ref()?;
+        if !(t >= l.t0 && t <= l.t0 + l.h) {
+            return None;
+        }
+        if t == self.t {
+            out.copy_from(&self.y);
+            return Some(());
+        }
+        if let Some(y) = self.memo.borrow().find(t) {
+            out.copy_from(y);
+            return Some(());
+        }
+        self.evaluate(l, t, out);
+        self.memo.borrow_mut().slot(t, out.len()).copy_from(out);
+        Some(())
+    }
+
+    /// Prepares the dense states at `times` in the last step, close to
+    /// equally spaced from its start (the switch locator's grid): the
+    /// contact response is marched from point to point (one propagator
+    /// per mode for the whole grid), the free motion taken from the
+    /// segment.
+    pub fn prefill(&self, times: &[f64]) {
+        let Some(l) = self.last.as_ref() else { return };
+        let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
+        let intervals = times.len().saturating_sub(1);
+        if intervals == 0 || times[0] != l.t0 {
+            return;
+        }
+        if intervals != GRID {
+            return;
+        }
+        let ratio = 1.0 / intervals as f64;
+        let kernels = self.kernels_for(l.h, true);
+        let (prop, resp) = (&kernels.grid_propagator, &kernels.grid_responses);
+        let mut z = vec![[0.0; 2]; n];
+        let mut shifted = vec![vec![0.0; s]; nc];
+        let mut st = ModalState::zeros(n);
+        let mut memo = self.memo.borrow_mut();
+        for (k, &t) in times.iter().enumerate() {
+            if k > 0 {
+                // The load over [tau_{k-1}, tau_k] in u = (tau - tau_{k-1}) / delta.
+                let sigma = (k - 1) as f64 * ratio;
+                for (c, alpha) in l.force.iter().enumerate() {
+                    taylor_shift(alpha, sigma, ratio, &mut shifted[c]);
+                }
+                for j in 0..n {
+                    let e = prop[j];
+                    let (x, v) = (z[j][0], z[j][1]);
+                    let mut next = [e[0] * x + e[1] * v, e[2] * x + e[3] * v];
+                    for (c, gamma) in shifted.iter().enumerate() {
+                        let dj = self.contacts[c].d[j];
+                        for m in 0..s {
+                            let r = resp[j * s + m];
+                            next[0] -= dj * gamma[m] * r[0];
+                            next[1] -= dj * gamma[m] * r[1];
+                        }
+                    }
+                    z[j] = next;
+                }
+            }
+            if t == l.t0 || t == self.t || memo.find(t).is_some() {
+                continue;
+            }
+            l.free.state_with_kernels(&self.dynamics, t, &kernels.grid_free[(k - 1) * n..k * n], &mut st);
+            let y = memo.slot(t, 2 * n + 2 * nc);
+            for j in 0..n {
+                y[j] = st.q[j] + z[j][0];
+                y[n + j] = st.qd[j] + z[j][1];
+            }
+            let sigma = (t - l.t0) / l.h;
+            for c in 0..nc {
+                y[2 * n + c] = l.y0[2 * n + c] + l.h * integral(&l.force[c], sigma);
+                y[2 * n + nc + c] = l.y0[2 * n + nc + c] + l.h * integral(&l.dissipation[c], sigma);
+            }
+
+        }
+    }
+
+    fn evaluate(&self, l: &Step, t: f64, out: &mut DVector<f64>) {
+        let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
+        let tau = t - l.t0;
+        let mut st = ModalState::zeros(n);
+        l.free.state_at(&self.dynamics, t, &mut st);
+        let mut r = vec![[0.0; 2]; n * (s + 1)];
+        let mut phis = [[0.0; 2]; 8];
+        if tau > 0.0 {
+            let sigma = tau / l.h;
+            for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
+                phi_columns(osc, tau, &mut phis[..s + 1]);
+                let mut factor = tau;
+                for m in 0..s {
+                    r[j * (s + 1) + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+                    factor *= sigma * (m + 1) as f64;
+                }
+            }
+        }
+        for j in 0..n {
+            let (mut x, mut v) = (st.q[j], st.qd[j]);
+            if tau > 0.0 {
+                for (c, alpha) in l.force.iter().enumerate() {
+                    let dj = self.contacts[c].d[j];
+                    for (m, a) in alpha.iter().enumerate() {
+                        let rr = r[j * (s + 1) + m];
+                        x -= dj * a * rr[0];
+                        v -= dj * a * rr[1];
+                    }
+                }
+            }
+            out[j] = x;
+            out[n + j] = v;
+        }
+        let sigma = tau / l.h;
+        for c in 0..nc {
+            out[2 * n + c] = l.y0[2 * n + c] + l.h * integral(&l.force[c], sigma);
+            out[2 * n + nc + c] = l.y0[2 * n + nc + c] + l.h * integral(&l.dissipation[c], sigma);
+        }
+    }
+}

@@ -1,0 +1,188 @@
+//! The kernel cache: per step size of the ladder, every mode's responses
+//! to the force monomials and its free kernels, and the contact
+//! coordinates' responses to the nodal forces.
+
+use std::sync::Arc;
+
+use nalgebra::DMatrix;
+
+use crate::solve::phi::phi_columns;
+use crate::solve::switch::SAMPLES;
+use super::ForceCollocation;
+
+/// Intervals of the switch locator's grid (its samples).
+pub(super) const GRID: usize = SAMPLES;
+/// Kernel sets kept.
+const KERNEL_SETS: usize = 48;
+/// Step sizes are powers of `2^(1 / LADDER)`.
+const LADDER: f64 = 4.0;
+
+/// The largest step size of the ladder not above `h`.
+pub(super) fn ladder(h: f64) -> f64 {
+    (f64::floor(h.log2() * LADDER) / LADDER).exp2()
+}
+
+/// What every step of one size needs, mode by mode: the responses to the
+/// force monomials and the free kernels at the nodes and the end, and for
+/// the switch grid the propagator over a grid interval.
+#[derive(Debug)]
+pub struct StepKernels {
+    pub(super) h: f64,
+    /// `R[(i * n + j) * (s + 2) + m]`: mode `j`'s response at point `i`
+    /// (the nodes, then the end) to `sigma^m` from rest, `m = 0..=s`.
+    pub(super) responses: Vec<[f64; 2]>,
+    /// `(Ec, Es)` at point `i`: `[i * n + j]`.
+    pub(super) free: Vec<(f64, f64)>,
+    /// Per mode, `e^{A h / GRID}` by rows.
+    pub(super) grid_propagator: Vec<[f64; 4]>,
+    /// `[j * s + m]`: the response over a grid interval to `u^m`.
+    pub(super) grid_responses: Vec<[f64; 2]>,
+    /// `(Ec, Es)` at `k h / GRID`: `[(k - 1) * n + j]`, `k = 1..=GRID`.
+    pub(super) grid_free: Vec<(f64, f64)>,
+}
+
+/// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
+fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
+    (phi0[1] + a * phi0[0], phi0[0])
+}
+
+/// The contact coordinates' responses for one step size.
+#[derive(Debug)]
+pub(super) struct Projected {
+    h: f64,
+    /// To the force monomials, at the nodes and the end:
+    /// `[((c * nc + e) * (s + 1) + i) * (s + 2) + m]` (position, rate).
+    pub(super) sm: Vec<[f64; 2]>,
+    /// To the nodal forces, at the nodes: `[(c, i), (e, k)]`.
+    pub(super) mp: DMatrix<f64>,
+    pub(super) mv: DMatrix<f64>,
+}
+
+impl ForceCollocation {
+    /// The kernels of steps of size `h`: from the ladder's cache, or
+    /// computed (with the grid's when `grid`, and kept).
+    pub(super) fn kernels_for(&self, h: f64, grid: bool) -> Arc<StepKernels> {
+        if let Some(k) = self.kernels.borrow().iter().find(|k| k.h == h && (!grid || !k.grid_free.is_empty())) {
+            return k.clone();
+        }
+        let (n, s) = (self.n, self.scheme.s);
+        let points: Vec<f64> = self.scheme.c.iter().map(|c| c * h).chain(std::iter::once(h)).collect();
+        let mono = s + 2;
+        let mut responses = vec![[0.0; 2]; points.len() * n * mono];
+        let mut free = vec![(0.0, 0.0); points.len() * n];
+        let mut phis = [[0.0; 2]; 8];
+        for (i, &tau) in points.iter().enumerate() {
+            let sigma = tau / h;
+            for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
+                phi_columns(osc, tau, &mut phis[..mono + 1]);
+                free[i * n + j] = kernels_of(phis[0], osc.a);
+                // m! sigma^m tau phi_{m+1}.
+                let mut factor = tau;
+                let base = (i * n + j) * mono;
+                for m in 0..mono {
+                    responses[base + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+                    factor *= sigma * (m + 1) as f64;
+                }
+            }
+        }
+        let (mut grid_propagator, mut grid_responses, mut grid_free) = (Vec::new(), Vec::new(), Vec::new());
+        if grid {
+            let delta = h / GRID as f64;
+            grid_propagator = vec![[0.0; 4]; n];
+            grid_responses = vec![[0.0; 2]; n * s];
+            grid_free = vec![(0.0, 0.0); GRID * n];
+            for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
+                phi_columns(osc, delta, &mut phis[..s + 1]);
+                let (ec, es) = kernels_of(phis[0], osc.a);
+                grid_propagator[j] = [ec + osc.a * es, es, -osc.omega * osc.omega * es, ec - osc.a * es];
+                let mut factor = delta;
+                for m in 0..s {
+                    grid_responses[j * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+                    factor *= (m + 1) as f64;
+                }
+                for k in 1..=GRID {
+                    grid_free[(k - 1) * n + j] = osc.kernels(k as f64 * delta);
+                }
+            }
+        }
+        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free });
+        if grid {
+            let mut cache = self.kernels.borrow_mut();
+            cache.retain(|k| k.h != h);
+            if cache.len() >= KERNEL_SETS {
+                cache.remove(0);
+            }
+            cache.push(kernels.clone());
+        }
+        kernels
+    }
+
+    /// The contact coordinates' responses to the contacts' forces for the
+    /// step size of `kernels`, remembered for the sizes of the ladder.
+    pub(super) fn projected_for(&self, kernels: &Arc<StepKernels>, cached: bool) -> Arc<Projected> {
+        let h = kernels.h;
+        if let Some(p) = self.projections.borrow().iter().find(|p| p.h == h) {
+            return p.clone();
+        }
+        let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
+        let ns = nc * s;
+        let mono = s + 2;
+        let r = &kernels.responses;
+        // Monomial responses of the contact coordinates: S[((c * nc + e) * (s + 1) + i) * mono + m].
+        let mut sm = vec![[0.0; 2]; nc * nc * (s + 1) * mono];
+        for c in 0..nc {
+            for e in 0..nc {
+                let dd = &self.dd[(c * nc + e) * n..(c * nc + e + 1) * n];
+                for i in 0..=s {
+                    for m in 0..mono {
+                        let (mut x, mut v) = (0.0, 0.0);
+                        for (j, w) in dd.iter().enumerate() {
+                            let rr = r[(i * n + j) * mono + m];
+                            x -= w * rr[0];
+                            v -= w * rr[1];
+                        }
+                        sm[((c * nc + e) * (s + 1) + i) * mono + m] = [x, v];
+                    }
+                }
+            }
+        }
+        // In the nodal basis at the nodes: mp[(c, i), (e, k)], mv likewise.
+        let mut mp = DMatrix::zeros(ns, ns);
+        let mut mv = DMatrix::zeros(ns, ns);
+        for c in 0..nc {
+            for e in 0..nc {
+                for i in 0..s {
+                    for k in 0..s {
+                        let (mut x, mut v) = (0.0, 0.0);
+                        for m in 0..s {
+                            let a = self.scheme.vinv[m * s + k];
+                            let smv = sm[((c * nc + e) * (s + 1) + i) * mono + m];
+                            x += a * smv[0];
+                            v += a * smv[1];
+                        }
+                        mp[(c * s + i, e * s + k)] = x;
+                        mv[(c * s + i, e * s + k)] = v;
+                    }
+                }
+            }
+        }
+        let projected = Arc::new(Projected { h, sm, mp, mv });
+        if cached {
+            let mut cache = self.projections.borrow_mut();
+            if cache.len() >= KERNEL_SETS {
+                cache.remove(0);
+            }
+            cache.push(projected.clone());
+        }
+        projected
+    }
+
+    /// The kernel sets of another stepper over the same structure (the
+    /// previous contact phase's): its step sizes recur.
+    pub fn adopt_kernels(&mut self, other: &ForceCollocation) {
+        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
+            *self.kernels.borrow_mut() = other.kernels.borrow().clone();
+        }
+    }
+
+}

@@ -1,0 +1,284 @@
+//! One attempted step: Newton on the nodal forces, the end state, and
+//! the error estimate from the force's defect.
+
+use nalgebra::DVector;
+
+use crate::solve::free::FreeSegment;
+use crate::solve::lu::{Lu, Order};
+use crate::solve::modal_state::ModalState;
+use super::scheme::horner;
+use super::{ForceCollocation, NewtonFailure, PointForces, Step, STAGES};
+
+/// Newton's convergence: the last correction moves every contact
+/// coordinate by less than this fraction of the tolerance.
+const NEWTON_FRACTION: f64 = 1e-3;
+const NEWTON_ITERATIONS: usize = 12;
+
+/// Working arrays of [`ForceCollocation::attempt`], kept between steps.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Scratch {
+    pf: Vec<f64>,
+    pdf: Vec<f64>,
+    f: DVector<f64>,
+    p: DVector<f64>,
+    pd: DVector<f64>,
+    law: Vec<(f64, f64, f64)>,
+    lu: Lu<f64>,
+    residual: Vec<f64>,
+    defect: Vec<f64>,
+    drive: Vec<f64>,
+    fb: Vec<f64>,
+    /// The step's start and the free motion at its points.
+    start: ModalState,
+    end: ModalState,
+    /// A step whose storage the next attempt reuses (a rejected attempt's,
+    /// the last accepted step once replaced).
+    spare: Option<Step>,
+}
+
+/// `v` as `len` zeros (no allocation once the size is known).
+fn reset(v: &mut Vec<f64>, len: usize) {
+    v.clear();
+    v.resize(len, 0.0);
+}
+
+/// Everything one attempted step computes.
+pub(super) struct Attempt {
+    pub(super) y1: DVector<f64>,
+    pub(super) step: Step,
+    pub(super) error: f64,
+}
+
+impl ForceCollocation {
+    /// Keeps `step`'s storage for the next attempt.
+    pub(super) fn recycle(&self, step: Step) {
+        self.scratch.borrow_mut().spare = Some(step);
+    }
+
+    /// Nodal forces to start Newton from: the last step's polynomial where
+    /// it covers the node, else the force at `t0` continued by its slope.
+    pub(super) fn guess(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64) -> Vec<f64> {
+        let (s, nc) = (self.scheme.s, self.contacts.len());
+        let mut g = vec![0.0; nc * s];
+        for c in 0..nc {
+            let (p, pd) = self.coordinate(c, y0);
+            let f0 = forces.force(c, p, pd).0;
+            for i in 0..s {
+                let t = t0 + self.scheme.c[i] * h;
+                g[c * s + i] = match &self.last {
+                    Some(l) if t >= l.t0 && t <= l.t0 + l.h => horner(&l.force[c], (t - l.t0) / l.h),
+                    Some(l) => {
+                        let poly = &l.force[c];
+                        let slope: f64 = poly.iter().enumerate().skip(1).map(|(m, a)| m as f64 * a).sum::<f64>() / l.h;
+                        (f0 + slope * (t - t0)).max(0.0)
+                    }
+                    None => f0,
+                };
+            }
+        }
+        g
+    }
+
+    /// One step of size `h` (`cached`: a size of the ladder, whose kernels
+    /// are kept).
+    pub(super) fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, guess: &[f64], cached: bool) -> Result<Attempt, NewtonFailure> {
+        let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
+        let ns = nc * s;
+        let kernels = self.kernels_for(h, cached);
+        let r = &kernels.responses;
+        let mut guard = self.scratch.borrow_mut();
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, spare } = &mut *guard;
+        if start.q.len() != n {
+            (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
+        }
+        start.q.copy_from(&y0.rows(0, n));
+        start.qd.copy_from(&y0.rows(n, n));
+        // The storage of a spare step, else new.
+        let (mut free, mut force, mut dissipation, mut y0_copy) = match spare.take() {
+            Some(Step { free, force, dissipation, y0: copy, .. }) => (free, force, dissipation, copy),
+            None => (FreeSegment::new(&self.dynamics, t0, start), Vec::new(), Vec::new(), y0.clone()),
+        };
+        free.reset(&self.dynamics, t0, start);
+        if y0_copy.len() == y0.len() {
+            y0_copy.copy_from(y0);
+        } else {
+            y0_copy = y0.clone();
+        }
+        // Free motion of the contact coordinates at the points; the
+        // state at the last (the step's end) is kept.
+        reset(pf, nc * (s + 1));
+        reset(pdf, nc * (s + 1));
+        for i in 0..=s {
+            let tau = if i < s { self.scheme.c[i] * h } else { h };
+            free.state_with_kernels(&self.dynamics, t0 + tau, &kernels.free[i * n..(i + 1) * n], end);
+            for c in 0..nc {
+                let d = &self.contacts[c].d;
+                pf[c * (s + 1) + i] = d.dot(&end.q) - self.contacts[c].gap;
+                pdf[c * (s + 1) + i] = d.dot(&end.qd);
+            }
+        }
+        let mono = s + 2;
+        let projected = self.projected_for(&kernels, cached);
+        let (sm, mp, mv) = (&projected.sm, &projected.mp, &projected.mv);
+        // Newton on the nodal forces.
+        let tol = self.options.tol;
+        let p_tol = |c: usize| NEWTON_FRACTION * tol * self.options.q_scale * self.amax[c];
+        let v_tol = |c: usize| NEWTON_FRACTION * tol * self.options.v_scale * self.amax[c];
+        if f.len() != ns {
+            *f = DVector::zeros(ns);
+            *p = DVector::zeros(ns);
+            *pd = DVector::zeros(ns);
+        }
+        f.copy_from_slice(guess);
+        law.clear();
+        law.resize(ns, (0.0, 0.0, 0.0));
+        reset(residual, ns);
+        let mut converged = false;
+        for _ in 0..NEWTON_ITERATIONS {
+            mp.mul_to(f, p);
+            mv.mul_to(f, pd);
+            for c in 0..nc {
+                for i in 0..s {
+                    let row = c * s + i;
+                    p[row] += pf[c * (s + 1) + i];
+                    pd[row] += pdf[c * (s + 1) + i];
+                    law[row] = forces.force(c, p[row], pd[row]);
+                }
+            }
+            let a = lu.matrix_mut(ns);
+            for row in 0..ns {
+                let (fl, dp, dpd) = law[row];
+                residual[row] = f[row] - fl;
+                for col in 0..ns {
+                    a[(row, col)] = if row == col { 1.0 } else { 0.0 } - (dp * mp[(row, col)] + dpd * mv[(row, col)]);
+                }
+            }
+            if !lu.factor(Order::Rows) {
+                return Err(NewtonFailure);
+            }
+            lu.solve(residual);
+            if !residual.iter().all(|x| x.is_finite()) {
+                return Err(NewtonFailure);
+            }
+            // The correction and its effect on the contact coordinates.
+            let mut small = true;
+            for row in 0..ns {
+                f[row] -= residual[row];
+                let (mut dp, mut dv) = (0.0, 0.0);
+                for col in 0..ns {
+                    dp += mp[(row, col)] * residual[col];
+                    dv += mv[(row, col)] * residual[col];
+                }
+                small &= dp.abs() <= p_tol(row / s) && dv.abs() <= v_tol(row / s);
+            }
+            if small {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            return Err(NewtonFailure);
+        }
+        // The converged nodes: coordinates, dissipated power.
+        mp.mul_to(f, p);
+        mv.mul_to(f, pd);
+        force.resize_with(nc, Vec::new);
+        dissipation.resize_with(nc, Vec::new);
+        let mut y1 = DVector::zeros(2 * n + 2 * nc);
+        for c in 0..nc {
+            let (alpha, beta) = (&mut force[c], &mut dissipation[c]);
+            alpha.resize(s, 0.0);
+            beta.resize(s, 0.0);
+            let mut nodal = [0.0; STAGES];
+            let mut power = [0.0; STAGES];
+            for i in 0..s {
+                let row = c * s + i;
+                nodal[i] = f[row];
+                power[i] = forces.dissipation_rate(c, p[row] + pf[c * (s + 1) + i], pd[row] + pdf[c * (s + 1) + i], f[row]);
+            }
+            self.scheme.monomials(&nodal[..s], alpha);
+            self.scheme.monomials(&power[..s], beta);
+            y1[2 * n + c] = y0[2 * n + c] + h * (0..s).map(|i| self.scheme.b[i] * nodal[i]).sum::<f64>();
+            y1[2 * n + nc + c] = y0[2 * n + nc + c] + h * (0..s).map(|i| self.scheme.b[i] * power[i]).sum::<f64>();
+        }
+        // The end state: free motion plus every mode's response.
+        for j in 0..n {
+            let (mut x, mut v) = (end.q[j], end.qd[j]);
+            let base = (s * n + j) * mono;
+            for (c, alpha) in force.iter().enumerate() {
+                let dj = self.contacts[c].d[j];
+                for (m, a) in alpha.iter().enumerate() {
+                    let rr = r[base + m];
+                    x -= dj * a * rr[0];
+                    v -= dj * a * rr[1];
+                }
+            }
+            y1[j] = x;
+            y1[n + j] = v;
+        }
+        // Error: the defect at the ends as `w_s(sigma) (D0 (1 - sigma) +
+        // D1 sigma)`: the same `D` at both ends where the force is smooth
+        // (the superconvergent estimate), different ones where it is not
+        // (an onset's `p^1.5`), whose response the estimate then carries.
+        let w_end = horner(&self.scheme.node_poly, 1.0);
+        let w_start = horner(&self.scheme.node_poly, 0.0);
+        reset(defect, nc * mono);
+        for c in 0..nc {
+            let (p1, pd1) = self.coordinate(c, &y1);
+            let (p0, pd0) = self.coordinate(c, y0);
+            let d1 = (forces.force(c, p1, pd1).0 - horner(&force[c], 1.0)) / w_end;
+            let d0 = (forces.force(c, p0, pd0).0 - horner(&force[c], 0.0)) / w_start;
+            for (m, w) in self.scheme.node_poly.iter().enumerate() {
+                defect[c * mono + m] += d0 * w;
+                defect[c * mono + m + 1] += (d1 - d0) * w;
+            }
+        }
+        // The nodes' response to the defect, fed back through the contacts.
+        reset(drive, ns);
+        for c in 0..nc {
+            for i in 0..s {
+                let row = c * s + i;
+                let (dp, dpd) = (law[row].1, law[row].2);
+                let (mut x, mut v) = (0.0, 0.0);
+                for (e, poly) in defect.chunks_exact(mono).enumerate() {
+                    for (m, w) in poly.iter().enumerate() {
+                        let smv = sm[((c * nc + e) * (s + 1) + i) * mono + m];
+                        x += w * smv[0];
+                        v += w * smv[1];
+                    }
+                }
+                drive[row] = dp * x + dpd * v;
+            }
+        }
+        lu.solve(drive);
+        let mut error: f64 = 0.0;
+        let mut coef = [0.0; STAGES + 2];
+        reset(fb, ns);
+        for c in 0..nc {
+            self.scheme.monomials(&drive[c * s..(c + 1) * s], &mut fb[c * s..(c + 1) * s]);
+        }
+        for j in 0..n {
+            coef.iter_mut().for_each(|x| *x = 0.0);
+            for c in 0..nc {
+                let dj = self.contacts[c].d[j];
+                for m in 0..mono {
+                    coef[m] -= dj * (defect[c * mono + m] + if m < s { fb[c * s + m] } else { 0.0 });
+                }
+            }
+            let base = (s * n + j) * mono;
+            let (mut x, mut v) = (0.0, 0.0);
+            for m in 0..mono {
+                x += coef[m] * r[base + m][0];
+                v += coef[m] * r[base + m][1];
+            }
+            let sq = tol * (self.options.q_scale + y1[j].abs().max(y0[j].abs()));
+            let sv = tol * (self.options.v_scale + y1[n + j].abs().max(y0[n + j].abs()));
+            error = error.max(x.abs() / sq).max(v.abs() / sv);
+        }
+        if !error.is_finite() || !y1.iter().all(|x| x.is_finite()) {
+            return Err(NewtonFailure);
+        }
+        Ok(Attempt { y1, step: Step { t0, h, y0: y0_copy, free, force, dissipation }, error })
+    }
+
+}
