@@ -13,6 +13,8 @@ use super::{ForceCollocation, NewtonFailure, PointForces, Step, STAGES};
 /// coordinate by less than this fraction of the tolerance.
 const NEWTON_FRACTION: f64 = 1e-3;
 const NEWTON_ITERATIONS: usize = 12;
+/// A Newton correction this many ulps of a contact coordinate is its rounding.
+const ROUNDING: f64 = 8.0 * f64::EPSILON;
 
 /// Working arrays of [`ForceCollocation::attempt`], kept between steps.
 #[derive(Clone, Debug, Default)]
@@ -169,7 +171,9 @@ impl ForceCollocation {
                     dp += mp[(row, col)] * residual[col];
                     dv += mv[(row, col)] * residual[col];
                 }
-                small &= dp.abs() <= p_tol(row / s) && dv.abs() <= v_tol(row / s);
+                // Converged to the tolerance, or to the rounding of the
+                // coordinates themselves (a tolerance near 1e-14 asks for less).
+                small &= dp.abs() <= p_tol(row / s).max(ROUNDING * p[row].abs()) && dv.abs() <= v_tol(row / s).max(ROUNDING * pd[row].abs());
             }
             if small {
                 converged = true;

@@ -360,11 +360,23 @@ impl Simulation {
             // The state at the switch: a step of its own from the step's start.
             let y0 = seg.step.as_ref().expect("a step").2.clone();
             let mut at = seg.switch_state(t0, &y0, t1, te);
-            // The zero is the dense output's (stage order): the state to
-            // full order may lie a rounding-sized distance short of it.
-            // Newton on the full-order state carries the switch past the
-            // zero, as the locator promises.
+            // The zero is the dense output's (stage order): Newton on the
+            // full-order state, each from the step's start, moves it to the
+            // full-order zero (within the step, after the bracket's start); that state
+            // may then lie a rounding-sized distance short of it, and
+            // Newton steps on from it carry the switch past the zero, as
+            // the locator promises.
             if let Some(&(c, slope)) = located.at_zero.first() {
+                for _ in 0..4 {
+                    let g = seg.evaluate(&seg.evaluators[c], &at);
+                    let rate = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                    let next = te - g / rate;
+                    if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
+                        break;
+                    }
+                    at = seg.switch_state(t0, &y0, t1, next);
+                    te = next;
+                }
                 for _ in 0..6 {
                     let g = seg.evaluate(&seg.evaluators[c], &at);
                     if g <= 0.0 {
