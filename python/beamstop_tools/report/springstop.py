@@ -1037,7 +1037,7 @@ def config(quick: bool) -> dict:
         return dict(quick=True, reps=1, kappas=[1e-2, 1e2, 1e6, 1e10], t_conv=0.5, nlist=[3, 5, 10, 20],
                     nref=30, ncheck=20, modal_n=[5, 10, 20], conv_step=1e-4, check_step=5e-5, vh_step=1e-4,
                     hist_n=[5, 10, 20], vh_n=[5, 20], n_periods_count=4,
-                    rt_n=[5, 20], ref_n=[5], ref_rtol=1e-13, ref_check_rtol=1e-12, wp_rtols=[1e-6, 1e-10])
+                    rt_n=[5, 20], ref_n=[5], ref_rtol=1e-11, ref_check_rtol=1e-10, wp_rtols=[1e-6, 1e-8])
     return dict(quick=False, reps=5, kappas=[10.0 ** e for e in range(-2, 13)], t_conv=4.0,
                 nlist=[2, 3, 4, 5, 6, 8, 10, 12, 15, 20, 25, 30, 40, 60], nref=80, ncheck=60,
                 conv_step=5e-5, check_step=2e-5, vh_step=1e-4,

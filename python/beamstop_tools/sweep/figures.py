@@ -387,7 +387,7 @@ def fig9_orbits(client):
     starts = [1.2]
     orbits = orb.cover(ROOT / "scenes" / "pinned_beam.json", "d", 0.0, 1.8, sweep_table, start=starts,
                        sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
-                       transient=int(spec.discard), max_branches=8 if QUICK else 200, out=WORK / "fig9_orbits")
+                       transient=int(spec.discard), max_branches=2 if QUICK else 200, out=WORK / "fig9_orbits")
     single = orb.continue_orbits(ROOT / "scenes" / "pinned_beam.json", "d", 0.0, 1.8, start=[1.2],
                                  sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
                                  max_branches=1, out=WORK / "fig9_orbits_one")
