@@ -562,11 +562,11 @@ fn main() {
     if let Some(path) = &dump {
         let Law::Hertz(h) = &model.stops[0].law else { unreachable!() };
         let alpha = match h.damping {
-            beamstop::contact::HertzDamping::Linear => 0.0,
-            beamstop::contact::HertzDamping::HuntCrossley => 1.5 * (1.0 - h.restitution),
-            beamstop::contact::HertzDamping::LankaraniNikravesh => 0.75 * (1.0 - h.restitution * h.restitution),
+            beamstop::contact::ContactDamping::Linear => 0.0,
+            beamstop::contact::ContactDamping::HuntCrossley => 1.5 * (1.0 - h.restitution),
+            beamstop::contact::ContactDamping::LankaraniNikravesh => 0.75 * (1.0 - h.restitution * h.restitution),
         };
-        let c_lin = if h.damping == beamstop::contact::HertzDamping::Linear { h.damping_coefficient } else { 0.0 };
+        let c_lin = if h.damping == beamstop::contact::ContactDamping::Linear { h.damping_coefficient } else { 0.0 };
         let out = serde_json::json!({
             "t_end": T_END,
             "n_out": N_OUT,

@@ -72,7 +72,7 @@ mod brent;
 use std::sync::Arc;
 use std::time::Instant;
 
-use beamstop::contact::{Hertz, HertzDamping};
+use beamstop::contact::{Hertz, ContactDamping};
 use beamstop::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use beamstop::structure::rotating::Order;
 use brent::brent;
@@ -736,9 +736,9 @@ fn main() {
         let s = model.surface.as_ref().unwrap();
         let beamstop::contact::Law::Hertz(law) = &s.law else { panic!("the peer models a Hertz surface") };
         let alpha = match law.damping {
-            HertzDamping::LankaraniNikravesh => 0.75 * (1.0 - law.restitution * law.restitution),
-            HertzDamping::HuntCrossley => 1.5 * (1.0 - law.restitution),
-            HertzDamping::Linear => 0.0,
+            ContactDamping::LankaraniNikravesh => 0.75 * (1.0 - law.restitution * law.restitution),
+            ContactDamping::HuntCrossley => 1.5 * (1.0 - law.restitution),
+            ContactDamping::Linear => 0.0,
         };
         let out = json!({
             "t_end": T_END,

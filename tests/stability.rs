@@ -477,7 +477,7 @@ fn hertz_stop(k: f64) -> Scene {
     scene.stops[0].law = beamstop::kinds::modal::scene::StopLaw::Hertz(beamstop::contact::Hertz {
         stiffness: k,
         damping_coefficient: 0.0,
-        damping: beamstop::contact::HertzDamping::Linear,
+        damping: beamstop::contact::ContactDamping::Linear,
         restitution: 1.0,
     });
     scene.solver.max_probes_per_step = Some(u64::MAX);

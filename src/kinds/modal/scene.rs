@@ -564,14 +564,6 @@ impl Scene {
             }
         }
         if let Some(i) = self.stops.iter().position(|s| integrated(&s.law)) {
-            // An integrated contact phase takes every engaged stop as a
-            // force: no constraint (a rigid stop) beside it.
-            if let Some(k) = self.stops.iter().position(|s| s.law.rigid()) {
-                let name = serde_json::to_value(&self.stops[k].law).ok().and_then(|v| v["type"].as_str().map(str::to_string)).unwrap_or_default();
-                return err(format!(
-                    "stops[{k}].law: a {name} stop cannot share a scene with stops[{i}], whose contact phases are integrated (every engaged stop is then a force, and a rigid stop has none); use a compliant law for every stop"
-                ));
-            }
             if self.outputs.energy_balance {
                 return err(format!("outputs.energy_balance: not available with stops[{i}], whose contact phases are integrated; its own energy outputs give the balance"));
             }

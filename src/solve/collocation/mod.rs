@@ -61,6 +61,13 @@ pub trait PointForces {
     fn force(&self, i: usize, p: f64, pd: f64) -> (f64, f64, f64);
     /// The power contact `i` dissipates at `(p, p')` with force `force`.
     fn dissipation_rate(&self, i: usize, p: f64, pd: f64, force: f64) -> f64;
+    /// Whether contact `i` is held on its surface (`p = 0`): its force is
+    /// then the constraint's reaction, found by collocating `p = 0` at the
+    /// nodes instead of a law (`force` is not asked).
+    fn held(&self, i: usize) -> bool {
+        let _ = i;
+        false
+    }
 }
 
 /// A point contact: coordinate `p = d . q - gap`, its force `F` loads the

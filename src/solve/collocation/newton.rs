@@ -52,6 +52,30 @@ pub(super) struct Attempt {
 }
 
 impl ForceCollocation {
+    /// Puts the end state `y` exactly on the held contacts' surfaces,
+    /// moving along them (the modes' mass is the identity: the orthogonal
+    /// projection of `q` and `q'`, as at a stick): the constraint is
+    /// collocated at velocity level, so its position would drift by the
+    /// rounding of every step.
+    fn onto_held(&self, forces: &impl PointForces, y: &mut DVector<f64>) {
+        let held: Vec<usize> = (0..self.contacts.len()).filter(|&c| forces.held(c)).collect();
+        if held.is_empty() {
+            return;
+        }
+        let n = self.n;
+        let d = nalgebra::DMatrix::from_columns(&held.iter().map(|&c| self.contacts[c].d.clone()).collect::<Vec<_>>());
+        let lu = (d.transpose() * &d).lu();
+        let p = DVector::from_iterator(held.len(), held.iter().map(|&c| self.coordinate(c, y).0));
+        let pd = DVector::from_iterator(held.len(), held.iter().map(|&c| self.coordinate(c, y).1));
+        if let (Some(a), Some(b)) = (lu.solve(&p), lu.solve(&pd)) {
+            let (dq, dv) = (&d * a, &d * b);
+            for j in 0..n {
+                y[j] -= dq[j];
+                y[n + j] -= dv[j];
+            }
+        }
+    }
+
     /// Keeps `step`'s storage for the next attempt.
     pub(super) fn recycle(&self, step: Step) {
         self.scratch.borrow_mut().spare = Some(step);
@@ -64,7 +88,7 @@ impl ForceCollocation {
         let mut g = vec![0.0; nc * s];
         for c in 0..nc {
             let (p, pd) = self.coordinate(c, y0);
-            let f0 = forces.force(c, p, pd).0;
+            let f0 = if forces.held(c) { 0.0 } else { forces.force(c, p, pd).0 };
             for i in 0..s {
                 let t = t0 + self.scheme.c[i] * h;
                 g[c * s + i] = match &self.last {
@@ -144,11 +168,23 @@ impl ForceCollocation {
                     let row = c * s + i;
                     p[row] += pf[c * (s + 1) + i];
                     pd[row] += pdf[c * (s + 1) + i];
-                    law[row] = forces.force(c, p[row], pd[row]);
+                    law[row] = if forces.held(c) { (0.0, 0.0, 0.0) } else { forces.force(c, p[row], pd[row]) };
                 }
             }
             let a = lu.matrix_mut(ns);
             for row in 0..ns {
+                if forces.held(row / s) {
+                    // A held contact: p' = 0 at the node (the constraint at
+                    // velocity level: a position-level one would answer a
+                    // rounding-sized p' at the step's start with a force
+                    // ~ p' / h), the row scaled to a unit diagonal.
+                    let scale = 1.0 / mv[(row, row)];
+                    residual[row] = pd[row] * scale;
+                    for col in 0..ns {
+                        a[(row, col)] = mv[(row, col)] * scale;
+                    }
+                    continue;
+                }
                 let (fl, dp, dpd) = law[row];
                 residual[row] = f[row] - fl;
                 for col in 0..ns {
@@ -228,6 +264,10 @@ impl ForceCollocation {
         let w_start = horner(&self.scheme.node_poly, 0.0);
         reset(defect, nc * mono);
         for c in 0..nc {
+            if forces.held(c) {
+                // A reaction has no law to miss.
+                continue;
+            }
             let (p1, pd1) = self.coordinate(c, &y1);
             let (p0, pd0) = self.coordinate(c, y0);
             let d1 = (forces.force(c, p1, pd1).0 - horner(&force[c], 1.0)) / w_end;
@@ -251,7 +291,8 @@ impl ForceCollocation {
                         v += w * smv[1];
                     }
                 }
-                drive[row] = dp * x + dpd * v;
+                // A held contact's reaction cancels the defect's push on it.
+                drive[row] = if forces.held(c) { -v / mv[(row, row)] } else { dp * x + dpd * v };
             }
         }
         lu.solve(drive);
@@ -282,6 +323,7 @@ impl ForceCollocation {
         if !error.is_finite() || !y1.iter().all(|x| x.is_finite()) {
             return Err(NewtonFailure);
         }
+        self.onto_held(forces, &mut y1);
         Ok(Attempt { y1, step: Step { t0, h, y0: y0_copy, free, force, dissipation }, error })
     }
 

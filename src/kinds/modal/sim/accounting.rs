@@ -262,7 +262,8 @@ impl Simulation {
                 }
                 None => 0.0,
             },
-            Segment::Free { .. } | Segment::Integrated(_) => 0.0,
+            Segment::Integrated(seg) => seg.held_push(stop, t, state).map_or(0.0, |(_, size)| size),
+            Segment::Free { .. } => 0.0,
         }
     }
 
@@ -276,7 +277,9 @@ impl Simulation {
                 }
                 None => 0.0,
             },
-            Segment::Free { .. } | Segment::Integrated(_) => 0.0,
+            // lambda = -side push (the push is the contact's force).
+            Segment::Integrated(seg) => seg.held_push(stop, t, state).map_or(0.0, |(push, _)| -self.model.stops[stop].geometry.side * push),
+            Segment::Free { .. } => 0.0,
         }
     }
 }

@@ -319,8 +319,10 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
         let counters = &st.stops[i];
         let contact = counters.contact;
         let mut at = WatchValues::new(sim, i, &st.current);
-        if integrated {
-            // A scene with an integrated phase: its switches are located on
+        if integrated && !stop.law.rigid() {
+            // A compliant stop in a scene with an integrated phase (a rigid
+            // stop's impacts and holds put the point exactly on it): its
+            // switches are located on
             // the collocation polynomial and their states are full-order
             // steps (a Newton step past the zero), so the state a switch
             // leaves, and the anchor of the phase after it, lie on either
@@ -365,7 +367,10 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
                 }
             }
         }
-        if contact == Contact::Open && counters.departing[0] && at.p.abs() <= at.level_p {
+        // An integrated phase's flags are its events' own, read only at its
+        // anchor (the search tests signs from there).
+        let flag_read = !matches!(sim.segment, super::Segment::Integrated(_)) || st.time == st.anchor_time;
+        if contact == Contact::Open && counters.departing[0] && flag_read && at.p.abs() <= at.level_p {
             // On the stop and treated as leaving it: it must not be pressed in.
             let geo = &sim.geometries[i];
             let mut jets = ModalJet::new(model.n_modes());

@@ -221,8 +221,21 @@ impl Simulation {
                 *jet = ModalJet::new(n);
             }
             jet.fill_free(&self.dynamics, t, st);
+            // The compliant stops pushing now press on the structure too
+            // (the free jet knows only the loads).
+            let mut pushed = DVector::zeros(n);
+            for (k, m) in self.model.stops.iter().enumerate() {
+                if !m.law.rigid() {
+                    let g = &self.geometries[k];
+                    let force = m.law.force(contact[k], g.penetration(&st.q), g.penetration_rate(&st.qd), self.state.stops[k].onset_speed);
+                    if force != 0.0 {
+                        pushed.axpy(-g.side * force, &g.w, 1.0);
+                    }
+                }
+            }
             for &i in chatter_ends.iter() {
-                let h = jet.functional(&self.gap_functionals[i], t);
+                let mut h = jet.functional(&self.gap_functionals[i], t);
+                h.d[2] += self.gap_functionals[i].q.dot(&pushed);
                 if tendency_from(&h, 2) != Tendency::Opening {
                     contact[i] = Contact::Held;
                 }
@@ -251,6 +264,21 @@ impl Simulation {
     /// Puts the state exactly on the held stops (`contact`: every stop's
     /// contact state), moving along them.
     fn project_on_held(&mut self, st: &mut ModalState, contact: &[Contact]) -> Result<(), SimError> {
+        let nonlinear = self.model.stops.iter().zip(contact).any(|(m, c)| m.law.term(*c) == crate::contact::PhaseTerm::Nonlinear);
+        if nonlinear && contact.iter().any(|c| *c == Contact::Held) {
+            // An integrated phase: the same projection (identity modal
+            // mass) without the coupled system it has none of.
+            let held: Vec<usize> = (0..contact.len()).filter(|&i| contact[i] == Contact::Held).collect();
+            let w = nalgebra::DMatrix::from_columns(&held.iter().map(|&i| self.geometries[i].w.clone()).collect::<Vec<_>>());
+            let gram = w.transpose() * &w;
+            let targets = DVector::from_iterator(held.len(), held.iter().map(|&i| self.geometries[i].target()));
+            let lu = gram.lu();
+            if let (Some(dq), Some(dv)) = (lu.solve(&(targets - w.transpose() * &st.q)), lu.solve(&(w.transpose() * &st.qd))) {
+                st.q += &w * dq;
+                st.qd -= &w * dv;
+            }
+            return Ok(());
+        }
         if contact.iter().any(|c| *c == Contact::Held) {
             // Exactly on the held stops, moving along them (VSM12 eqs. 29-31:
             // project at entry so no drift accumulates). A phase entered

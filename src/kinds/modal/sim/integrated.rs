@@ -24,15 +24,25 @@ use super::{Channel, SimError, Simulation};
 use crate::contact::{Contact, Watch};
 use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointContact};
 use crate::solve::switch::{first_switch, DenseWatch};
-use crate::solve::{Functional, Jet, ModalState, REANCHOR_AFTER};
+use crate::solve::{Functional, Jet, ModalForcing, ModalState, REANCHOR_AFTER};
+
+/// Within this fraction of a step past the search's end, a located zero
+/// is refined before it is compared with the end (its refined time may lie
+/// before it).
+const SETTLE_MARGIN: f64 = 0.01;
 
 /// How one channel is evaluated in an integrated phase.
 #[derive(Clone, Debug)]
 pub(super) enum Evaluator {
     /// An engaged stop's watch, on contact `i` of the phase.
     Nonlinear { contact: usize, watch: Watch },
-    /// A function affine in the modal state (an open stop's gap).
-    Affine(Functional),
+    /// A function affine in the modal state (an open stop's gap), and the
+    /// rounding of its terms when it leaves zero at the anchor (else 0):
+    /// a stop released from a hold leaves as `t^3`, inside the rounding of
+    /// the integrated state for a while, so the function counts as that
+    /// much larger until it is clear of it (a closing one then crosses
+    /// zero that much later, a rounding-sized shift).
+    Affine(Functional, f64),
 }
 
 /// The integrated segment: the phase's forces, the stepper, and the last
@@ -54,6 +64,28 @@ pub(super) struct IntegratedSegment {
     pub steps: u64,
     /// Room for one integrated state (the switch locator's samples).
     buffer: std::cell::RefCell<DVector<f64>>,
+    /// With a held rigid stop among the contacts: what its reaction
+    /// depends on besides the state.
+    pub reaction_model: Option<ReactionModel>,
+}
+
+/// The modal loads and coefficients a held stop's reaction is formed from
+/// ([`NonlinearPhase::reactions`]).
+#[derive(Clone, Debug)]
+pub(super) struct ReactionModel {
+    pub forcing: ModalForcing,
+    /// `omega_j^2` and `2 a_j`.
+    pub stiffness: Vec<f64>,
+    pub damping: Vec<f64>,
+}
+
+impl ReactionModel {
+    /// Every contact's push at `t` in `y` (zero but for the held ones).
+    pub fn pushes(&self, phase: &NonlinearPhase, t: f64, y: &DVector<f64>) -> Vec<f64> {
+        let mut f = DVector::zeros(phase.n);
+        self.forcing.derivative(t, 0, &mut f);
+        phase.reactions(y.as_slice(), &f, &self.stiffness, &self.damping)
+    }
 }
 
 impl IntegratedSegment {
@@ -95,22 +127,51 @@ impl IntegratedSegment {
         (y[2 * n + i], y[2 * n + nc + i])
     }
 
-    fn evaluate(&self, e: &Evaluator, y: &DVector<f64>) -> f64 {
+    fn evaluate(&self, e: &Evaluator, t: f64, y: &DVector<f64>) -> f64 {
         match e {
+            Evaluator::Nonlinear { contact, watch: Watch::Reaction } => {
+                // A held stop's push, -side lambda.
+                self.reaction_model.as_ref().map_or(0.0, |r| r.pushes(&self.phase, t, y)[*contact])
+            }
             Evaluator::Nonlinear { contact, watch } => {
                 let (p, pd) = self.phase.penetration(*contact, y.as_slice());
                 let c = &self.phase.contacts[*contact];
                 c.law.watched(*watch, p, pd, c.onset_speed).0
             }
-            Evaluator::Affine(h) => {
+            Evaluator::Affine(h, floor) => {
                 let n = self.phase.n;
-                h.offset + h.q.iter().zip(y.rows(0, n).iter()).map(|(a, b)| a * b).sum::<f64>()
+                h.offset + h.q.iter().zip(y.rows(0, n).iter()).map(|(a, b)| a * b).sum::<f64>() + floor
             }
         }
     }
 }
 
 impl IntegratedSegment {
+    /// A held stop's push at `t` in `state`, with the size of the terms it
+    /// is formed from (for the level a decoder takes as zero); `None` when
+    /// the stop is not held in this phase.
+    pub fn held_push(&self, stop: usize, t: f64, state: &ModalState) -> Option<(f64, f64)> {
+        let model = self.reaction_model.as_ref()?;
+        let i = self.phase.contacts.iter().position(|c| c.stop == stop && c.held)?;
+        let n = self.phase.n;
+        let mut y = DVector::zeros(self.phase.dim());
+        y.rows_mut(0, n).copy_from(&state.q);
+        y.rows_mut(n, n).copy_from(&state.qd);
+        let push = model.pushes(&self.phase, t, &y)[i];
+        let mut f = DVector::zeros(n);
+        model.forcing.derivative(t, 0, &mut f);
+        let w = &self.phase.contacts[i].geometry.w;
+        let terms: f64 = (0..n).map(|j| w[j].abs() * (f[j].abs() + model.stiffness[j] * state.q[j].abs() + model.damping[j] * state.qd[j].abs())).sum();
+        let others: f64 = (0..self.phase.contacts.len())
+            .filter(|&k| !self.phase.contacts[k].held)
+            .map(|k| {
+                let (p, pd) = self.phase.penetration(k, y.as_slice());
+                self.phase.contacts[k].force(p, pd).0 * self.phase.contacts[k].geometry.w.iter().zip(w.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>()
+            })
+            .sum();
+        Some((push, (terms + others) / w.dot(w)))
+    }
+
     /// The state at a switch at `te` in the step `[t0, t1]` from `y0`: a
     /// step of its own (the end state at `t1`).
     fn switch_state(&self, t0: f64, y0: &DVector<f64>, t1: f64, te: f64) -> DVector<f64> {
@@ -134,7 +195,7 @@ impl IntegratedSegment {
         let n = self.phase.n;
         let dot = |a: &[f64], sign: f64| sign * a.iter().zip(y.rows(n, n).iter()).map(|(x, d)| x * d).sum::<f64>();
         match &self.evaluators[i] {
-            Evaluator::Affine(h) => Some(dot(h.q.as_slice(), 1.0)),
+            Evaluator::Affine(h, _) => Some(dot(h.q.as_slice(), 1.0)),
             Evaluator::Nonlinear { contact, watch } => {
                 let g = &self.phase.contacts[*contact].geometry;
                 match watch {
@@ -159,14 +220,14 @@ impl DenseWatch for IntegratedSegment {
         let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
         for (o, e) in out.iter_mut().zip(&self.evaluators) {
-            *o = self.evaluate(e, &y);
+            *o = self.evaluate(e, t, &y);
         }
     }
 
     fn value(&self, i: usize, t: f64) -> f64 {
         let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
-        self.evaluate(&self.evaluators[i], &y)
+        self.evaluate(&self.evaluators[i], t, &y)
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
@@ -198,16 +259,28 @@ impl Simulation {
         let mut contacts = Vec::new();
         let mut index = vec![usize::MAX; self.model.stops.len()];
         for (i, (m, s)) in self.model.stops.iter().zip(&self.state.stops).enumerate() {
-            if s.contact != Contact::Open && !m.law.rigid() {
+            // Engaged compliant stops push by their law; held rigid stops
+            // by the reaction that keeps them on their surface.
+            if s.contact != Contact::Open {
                 index[i] = contacts.len();
-                contacts.push(NonlinearContact { stop: i, law: m.law.clone(), geometry: self.geometries[i].clone(), contact: s.contact, onset_speed: s.onset_speed });
+                let held = m.law.rigid();
+                contacts.push(NonlinearContact { stop: i, law: m.law.clone(), geometry: self.geometries[i].clone(), contact: s.contact, onset_speed: s.onset_speed, held });
             }
         }
         let evaluators = self
             .channels
             .iter()
             .map(|ch: &Channel| match self.state.stops[ch.stop].contact {
-                Contact::Open => Evaluator::Affine(self.gap_functionals[ch.stop].clone()),
+                Contact::Open => {
+                    let h = self.gap_functionals[ch.stop].clone();
+                    let floor = if self.state.stops[ch.stop].anchor_departing[ch.slot] {
+                        let q = &self.state.anchor.q;
+                        64.0 * f64::EPSILON * (h.offset.abs() + h.q.iter().zip(q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>())
+                    } else {
+                        0.0
+                    };
+                    Evaluator::Affine(h, floor)
+                }
                 _ => Evaluator::Nonlinear { contact: index[ch.stop], watch: ch.watch },
             })
             .collect();
@@ -218,7 +291,7 @@ impl Simulation {
         let mut quarter = f64::INFINITY;
         let slowest = self.model.oscillators.iter().map(|o| o.omega).fold(f64::INFINITY, f64::min);
         let (mut scale_q, mut scale_v) = (0.0f64, 0.0f64);
-        for c in &contacts {
+        for c in contacts.iter().filter(|c| !c.held) {
             let g = &c.geometry;
             let w2 = g.w.dot(&g.w);
             let w_max = g.w.amax().max(f64::MIN_POSITIVE);
@@ -264,7 +337,12 @@ impl Simulation {
         if let Some(super::Segment::Integrated(previous)) = &self.spare {
             solver.adopt_kernels(&previous.solver);
         }
-        Ok(IntegratedSegment { buffer: DVector::zeros(dim).into(), phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor, steps: 0 })
+        let reaction_model = phase.contacts.iter().any(|c| c.held).then(|| ReactionModel {
+            forcing: self.dynamics.forcing.clone(),
+            stiffness: self.dynamics.oscillators.iter().map(|o| o.omega * o.omega).collect(),
+            damping: self.dynamics.oscillators.iter().map(|o| 2.0 * o.a).collect(),
+        });
+        Ok(IntegratedSegment { buffer: DVector::zeros(dim).into(), phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor, steps: 0, reaction_model })
     }
 
     /// Steps the integrated phase until its steps cover `t` (a restored
@@ -353,7 +431,10 @@ impl Simulation {
                 continue;
             };
             let mut te = located.time;
-            if te > t_end {
+            // The refinement below moves the dense output's zero by its
+            // error, a small fraction of the step, either way: a zero that
+            // far past t_end is past it whatever the refinement says.
+            if te > t_end + SETTLE_MARGIN * (t1 - t0) {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
             }
@@ -368,7 +449,7 @@ impl Simulation {
             // the locator promises.
             if let Some(&(c, slope)) = located.at_zero.first() {
                 for _ in 0..4 {
-                    let g = seg.evaluate(&seg.evaluators[c], &at);
+                    let g = seg.evaluate(&seg.evaluators[c], te, &at);
                     let rate = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                     let next = te - g / rate;
                     if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
@@ -378,7 +459,7 @@ impl Simulation {
                     te = next;
                 }
                 for _ in 0..6 {
-                    let g = seg.evaluate(&seg.evaluators[c], &at);
+                    let g = seg.evaluate(&seg.evaluators[c], te, &at);
                     if g <= 0.0 {
                         break;
                     }
@@ -396,6 +477,10 @@ impl Simulation {
                     te = next;
                 }
             }
+            if te > t_end {
+                self.state.scan = self.state.scan.max(t_end);
+                return Ok(None);
+            }
             if te != t1 && te > t0 {
                 // The totals the switch closes the phase with come from
                 // this state too, as they do when the run stopped here first.
@@ -409,7 +494,7 @@ impl Simulation {
                 .at_zero
                 .iter()
                 .map(|&(c, slope)| {
-                    let value = seg.evaluate(&seg.evaluators[c], &at);
+                    let value = seg.evaluate(&seg.evaluators[c], te, &at);
                     (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
                 })
                 .collect();

@@ -4,10 +4,14 @@
 //!
 //! The structure stays linear: `q'' + 2 a q' + omega^2 q = f(t) - sum_i
 //! side_i w_i F_i` with each engaged stop's force `F_i(p_i, p_i')` from its
-//! law (Hertz: DWZ eqs. 2-4). The integrated state is `[q; q'; J; E]`:
+//! law (Hertz: DWZ eqs. 2-4), and each held rigid stop's `F_i` the
+//! reaction that keeps it on its surface (`side_i w_i . q'' = 0`; VSM12
+//! eq. 33 with the other stops' forces among the loads). The integrated state is `[q; q'; J; E]`:
 //! besides the modal state it carries, per engaged stop, the impulse `J_i =
 //! int F_i dt` and the energy its damping dissipates `E_i = int (F_i -
 //! F_spring,i) p_i' dt`, so both come out of the integration to its accuracy.
+
+use nalgebra::{DMatrix, DVector};
 
 use crate::contact::{Contact, Geometry, Law};
 use crate::solve::collocation::PointForces;
@@ -21,13 +25,15 @@ pub struct NonlinearContact {
     pub geometry: Geometry,
     pub contact: Contact,
     pub onset_speed: f64,
+    /// A rigid stop held on its surface: its force is the reaction.
+    pub held: bool,
 }
 
 impl NonlinearContact {
     /// The force and its partial derivatives `(F, dF/dp, dF/dp')`, zero
     /// where the law does not push.
     pub fn force(&self, p: f64, pd: f64) -> (f64, f64, f64) {
-        if p <= 0.0 {
+        if p <= 0.0 || self.held {
             return (0.0, 0.0, 0.0);
         }
         let (f, dp, dpd) = self.law.raw_force(p, pd, self.onset_speed);
@@ -62,6 +68,35 @@ impl NonlinearPhase {
         2 * self.n + 2 * self.contacts.len()
     }
 
+    /// The pushes of the held contacts (`F_i` of every contact, zero for
+    /// the others) at time `t` in state `y`, given the modal forcing `f`
+    /// there and the modes' `omega^2` and `2 a`: the forces that keep
+    /// `side_i w_i . q'' = 0` for every held contact (VSM12 eq. 33).
+    pub fn reactions(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> Vec<f64> {
+        let n = self.n;
+        let mut accel = DVector::from_fn(n, |j, _| f[j] - stiffness[j] * y[j] - damping[j] * y[n + j]);
+        for (i, c) in self.contacts.iter().enumerate() {
+            if !c.held {
+                let (p, pd) = self.penetration(i, y);
+                accel.axpy(-c.geometry.side * c.force(p, pd).0, &c.geometry.w, 1.0);
+            }
+        }
+        let held: Vec<usize> = (0..self.contacts.len()).filter(|&i| self.contacts[i].held).collect();
+        let mut out = vec![0.0; self.contacts.len()];
+        if held.is_empty() {
+            return out;
+        }
+        let d = |i: usize| &self.contacts[i].geometry.w * self.contacts[i].geometry.side;
+        let gram = DMatrix::from_fn(held.len(), held.len(), |a, b| d(held[a]).dot(&d(held[b])));
+        let rhs = DVector::from_fn(held.len(), |a, _| d(held[a]).dot(&accel));
+        if let Some(x) = gram.lu().solve(&rhs) {
+            for (a, &i) in held.iter().enumerate() {
+                out[i] = x[a];
+            }
+        }
+        out
+    }
+
     /// Penetration and its rate of contact `i` in the integrated state `y`.
     pub fn penetration(&self, i: usize, y: &[f64]) -> (f64, f64) {
         let g = &self.contacts[i].geometry;
@@ -75,9 +110,13 @@ impl PointForces for NonlinearPhase {
         self.contacts[i].force(p, pd)
     }
 
-    /// `E' = (F - F_spring) p'` while the stop pushes.
+    fn held(&self, i: usize) -> bool {
+        self.contacts[i].held
+    }
+
+    /// `E' = (F - F_spring) p'` while the stop pushes (a reaction does no work).
     fn dissipation_rate(&self, i: usize, p: f64, pd: f64, force: f64) -> f64 {
-        if force > 0.0 {
+        if force > 0.0 && !self.contacts[i].held {
             (force - self.contacts[i].spring_force(p).0) * pd
         } else {
             0.0
