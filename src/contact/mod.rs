@@ -197,6 +197,10 @@ pub struct LawOutput {
     pub kind: crate::variables::OutputType,
     /// Changes only at events.
     pub discrete: bool,
+    /// How it reads on a rotating beam's surface, where the law is the
+    /// tip's (`{force}` as in `description`), or `None` where a surface
+    /// has no such output.
+    pub surface: Option<&'static str>,
 }
 
 /// What a stop does: the contract every contact law implements, each in
@@ -400,10 +404,42 @@ pub const COMPLIANT_OUTPUTS: &[LawOutput] = {
     use crate::units::Unit;
     use crate::variables::OutputType::{Boolean, Integer, Real};
     &[
-        LawOutput { what: StopOutput::Force, suffix: "force", description: "Force of stop '{stop}', max(0, {force}) while in contact (>= 0, pushing the structure away)", unit: Unit::Newton, kind: Real, discrete: false },
-        LawOutput { what: StopOutput::Penetration, suffix: "penetration", description: "Penetration p of stop '{stop}' (negative: the clearance left)", unit: Unit::Metre, kind: Real, discrete: false },
-        LawOutput { what: StopOutput::Contact, suffix: "contact", description: "Whether stop '{stop}' pushes (in contact)", unit: Unit::One, kind: Boolean, discrete: true },
-        LawOutput { what: StopOutput::Impacts, suffix: "contacts", description: "Number of contact onsets at stop '{stop}' since the start", unit: Unit::One, kind: Integer, discrete: true },
+        LawOutput {
+            what: StopOutput::Force,
+            suffix: "force",
+            description: "Force of stop '{stop}', max(0, {force}) while in contact (>= 0, pushing the structure away)",
+            unit: Unit::Newton,
+            kind: Real,
+            discrete: false,
+            surface: Some("Force the surface pushes the tip with, max(0, {force}), p its penetration"),
+        },
+        LawOutput {
+            what: StopOutput::Penetration,
+            suffix: "penetration",
+            description: "Penetration p of stop '{stop}' (negative: the clearance left)",
+            unit: Unit::Metre,
+            kind: Real,
+            discrete: false,
+            surface: Some("Penetration gamma of the tip into the surface (0 outside)"),
+        },
+        LawOutput {
+            what: StopOutput::Contact,
+            suffix: "contact",
+            description: "Whether stop '{stop}' pushes (in contact)",
+            unit: Unit::One,
+            kind: Boolean,
+            discrete: true,
+            surface: Some("Whether the surface pushes the tip"),
+        },
+        LawOutput {
+            what: StopOutput::Impacts,
+            suffix: "contacts",
+            description: "Number of contact onsets at stop '{stop}' since the start",
+            unit: Unit::One,
+            kind: Integer,
+            discrete: true,
+            surface: Some("Number of contact onsets since the start"),
+        },
         LawOutput {
             what: StopOutput::LastImpact,
             suffix: "t_last_contact",
@@ -411,8 +447,17 @@ pub const COMPLIANT_OUTPUTS: &[LawOutput] = {
             unit: Unit::Second,
             kind: Real,
             discrete: true,
+            surface: None,
         },
-        LawOutput { what: StopOutput::StoredEnergy, suffix: "E_stored", description: "Elastic energy stored in stop '{stop}' in contact ({stored})", unit: Unit::Joule, kind: Real, discrete: false },
+        LawOutput {
+            what: StopOutput::StoredEnergy,
+            suffix: "E_stored",
+            description: "Elastic energy stored in stop '{stop}' in contact ({stored})",
+            unit: Unit::Joule,
+            kind: Real,
+            discrete: false,
+            surface: None,
+        },
         LawOutput {
             what: StopOutput::DissipatedEnergy,
             suffix: "E_dissipated",
@@ -420,6 +465,7 @@ pub const COMPLIANT_OUTPUTS: &[LawOutput] = {
             unit: Unit::Joule,
             kind: Real,
             discrete: false,
+            surface: Some("Energy the contact dissipated since the start (its damping, and the spring energy left when a push ends inside the surface)"),
         },
     ]
 };

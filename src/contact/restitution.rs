@@ -53,7 +53,7 @@ impl Restitution {
 }
 
 const OUTPUTS: &[LawOutput] = &[
-    LawOutput { what: StopOutput::Impacts, suffix: "impacts", description: "Number of impacts at stop '{stop}' since the start", unit: Unit::One, kind: OutputType::Integer, discrete: true },
+    LawOutput { what: StopOutput::Impacts, suffix: "impacts", description: "Number of impacts at stop '{stop}' since the start", unit: Unit::One, kind: OutputType::Integer, discrete: true, surface: None },
     LawOutput {
         what: StopOutput::LastImpact,
         suffix: "t_last_impact",
@@ -61,8 +61,9 @@ const OUTPUTS: &[LawOutput] = &[
         unit: Unit::Second,
         kind: OutputType::Real,
         discrete: true,
+        surface: None,
     },
-    LawOutput { what: StopOutput::Sticking, suffix: "sticking", description: "Whether the structure is stuck to stop '{stop}'", unit: Unit::One, kind: OutputType::Boolean, discrete: true },
+    LawOutput { what: StopOutput::Sticking, suffix: "sticking", description: "Whether the structure is stuck to stop '{stop}'", unit: Unit::One, kind: OutputType::Boolean, discrete: true, surface: None },
     LawOutput {
         what: StopOutput::Sticks,
         suffix: "sticks",
@@ -70,6 +71,7 @@ const OUTPUTS: &[LawOutput] = &[
         unit: Unit::One,
         kind: OutputType::Integer,
         discrete: true,
+        surface: None,
     },
     LawOutput {
         what: StopOutput::StuckTime,
@@ -78,6 +80,7 @@ const OUTPUTS: &[LawOutput] = &[
         unit: Unit::Second,
         kind: OutputType::Real,
         discrete: false,
+        surface: None,
     },
     LawOutput {
         what: StopOutput::Reaction,
@@ -86,6 +89,7 @@ const OUTPUTS: &[LawOutput] = &[
         unit: Unit::Newton,
         kind: OutputType::Real,
         discrete: false,
+        surface: None,
     },
 ];
 

@@ -7,7 +7,7 @@
 
 use super::spec::{HubDrive, Profile, RotatingSpec};
 use super::RotatingSimulation;
-use crate::contact::Contact;
+use crate::contact::{Contact, LawOutput, StopOutput};
 use crate::variables::{Input, Output, OutputType, Parameter, Range, Unit, Value};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -20,12 +20,9 @@ pub enum RotatingOutput {
     RootMoment,
     Energy,
     HubTorque,
-    Force,
-    Penetration,
-    Contact,
-    Contacts,
+    /// An output the surface's law provides ([`LawOutput::surface`]).
+    Law(StopOutput),
     Impulse,
-    DissipatedEnergy,
 }
 
 /// Every parameter of the scene, in a stable order; all fixed for a run.
@@ -109,21 +106,17 @@ pub fn outputs(spec: &RotatingSpec) -> Vec<(RotatingOutput, Output)> {
     if matches!(spec.hub, HubDrive::Prescribed(_)) {
         push(RotatingOutput::HubTorque, "hub.torque", "Torque the prescribed hub motion needs", Unit::NewtonMetre, real, false);
     }
-    if spec.surface.is_some() {
-        let (force, _) = spec.surface.as_ref().map_or(("", ""), |s| s.law.formulas());
-        push(RotatingOutput::Force, "stop.force", &format!("Force the surface pushes the tip with, max(0, {force}), p its penetration"), Unit::Newton, real, false);
-        push(RotatingOutput::Penetration, "stop.penetration", "Penetration gamma of the tip into the surface (0 outside)", Unit::Metre, real, false);
-        push(RotatingOutput::Contact, "stop.contact", "Whether the surface pushes the tip", Unit::One, OutputType::Boolean, true);
-        push(RotatingOutput::Contacts, "stop.contacts", "Number of contact onsets since the start", Unit::One, OutputType::Integer, true);
-        push(RotatingOutput::Impulse, "stop.impulse", "Impulse of the contact force over the last communication step (>= 0)", Unit::NewtonSecond, real, true);
-        push(
-            RotatingOutput::DissipatedEnergy,
-            "stop.E_dissipated",
-            "Energy the contact dissipated since the start (its damping, and the spring energy left when a push ends inside the surface)",
-            Unit::Joule,
-            real,
-            false,
-        );
+    if let Some(surface) = &spec.surface {
+        // The law's outputs that a surface has, and every contact's
+        // impulse (before the dissipated energy: the FMU's order).
+        let (force, _) = surface.law.formulas();
+        let law_outputs = surface.law.outputs().iter().filter_map(|o: &LawOutput| o.surface.map(|text| (o, text)));
+        for (o, text) in law_outputs {
+            if o.what == StopOutput::DissipatedEnergy {
+                push(RotatingOutput::Impulse, "stop.impulse", "Impulse of the contact force over the last communication step (>= 0)", Unit::NewtonSecond, real, true);
+            }
+            push(RotatingOutput::Law(o.what), &format!("stop.{}", o.suffix), &text.replace("{force}", force), o.unit, o.kind, o.discrete);
+        }
     }
     out
 }
@@ -139,11 +132,12 @@ pub fn evaluate(key: RotatingOutput, sim: &RotatingSimulation) -> Value {
         RotatingOutput::RootMoment => Value::Real(sim.root_moment()),
         RotatingOutput::Energy => Value::Real(sim.total_energy()),
         RotatingOutput::HubTorque => Value::Real(sim.hub_torque()),
-        RotatingOutput::Force => Value::Real(sim.contact_force()),
-        RotatingOutput::Penetration => Value::Real(sim.penetration()),
-        RotatingOutput::Contact => Value::Boolean(sim.contact_state() == Contact::Pressed),
-        RotatingOutput::Contacts => Value::Integer(sim.contacts().min(i64::MAX as u64) as i64),
+        RotatingOutput::Law(StopOutput::Force) => Value::Real(sim.contact_force()),
+        RotatingOutput::Law(StopOutput::Penetration) => Value::Real(sim.penetration()),
+        RotatingOutput::Law(StopOutput::Contact) => Value::Boolean(sim.contact_state() == Contact::Pressed),
+        RotatingOutput::Law(StopOutput::Impacts) => Value::Integer(sim.contacts().min(i64::MAX as u64) as i64),
+        RotatingOutput::Law(StopOutput::DissipatedEnergy) => Value::Real(sim.dissipated_energy()),
+        RotatingOutput::Law(other) => unreachable!("a surface has no {other:?} output (its law's LawOutput::surface is None)"),
         RotatingOutput::Impulse => Value::Real(sim.last_impulse()),
-        RotatingOutput::DissipatedEnergy => Value::Real(sim.dissipated_energy()),
     }
 }
