@@ -442,11 +442,11 @@ impl Simulation {
             let y0 = seg.step.as_ref().expect("a step").2.clone();
             let mut at = seg.switch_state(t0, &y0, t1, te);
             // The zero is the dense output's (stage order): Newton on the
-            // full-order state, each from the step's start, moves it to the
-            // full-order zero (within the step, after the bracket's start); that state
-            // may then lie a rounding-sized distance short of it, and
-            // Newton steps on from it carry the switch past the zero, as
-            // the locator promises.
+            // full-order state, each iterate a step from the step's start,
+            // moves it to the full-order zero (within the step, after the
+            // bracket's start); that state may then lie a rounding-sized
+            // distance short of it, and Newton steps on from it carry the
+            // switch past the zero, as the locator promises.
             if let Some(&(c, slope)) = located.at_zero.first() {
                 for _ in 0..4 {
                     let g = seg.evaluate(&seg.evaluators[c], te, &at);
