@@ -377,8 +377,11 @@ impl ContactDamping {
             ContactDamping::HuntCrossley => 1.5 * (1.0 - e),
             ContactDamping::LankaraniNikravesh => 0.75 * (1.0 - e * e),
         };
-        if onset_speed > 0.0 {
-            alpha / onset_speed
+        // An onset at (nearly) no speed has no hysteresis to scale: 0, not
+        // an infinite factor (whose product with a zero spring is NaN).
+        let factor = if onset_speed > 0.0 { alpha / onset_speed } else { 0.0 };
+        if factor.is_finite() {
+            factor
         } else {
             0.0
         }

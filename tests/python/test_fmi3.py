@@ -35,6 +35,7 @@ NAMES = sorted(p.stem for p in FMU3_DIR.glob("*.fmu"))
 HORIZON = {
     "HertzStop": 0.1,
     "PinnedBeamStop": 20.0,
+    "RigidAndHertzStops": 3.0,
     "RotatingBeamImpact": 0.02,
     "SpinUpBeam": 3.0,
     "SpringStopHard": 0.1,

@@ -464,7 +464,12 @@ impl Simulation {
                         break;
                     }
                     let rate = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
-                    let next = (te - g / rate).max(te + 4.0 * f64::EPSILON * te.abs());
+                    // Within the step: its samples and steps cover no further
+                    // (a slope near zero would send it far past them).
+                    let next = (te - g / rate).max(te + 4.0 * f64::EPSILON * te.abs()).min(t1);
+                    if next <= te {
+                        break;
+                    }
                     if next > t_end {
                         self.state.scan = self.state.scan.max(t_end);
                         return Ok(None);
