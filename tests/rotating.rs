@@ -1000,9 +1000,10 @@ fn l_very_fast_spin_stays_bounded() {
     }
 }
 
-/// The two integrators (`solver.method`: DOP853, explicit order 8, and
-/// Radau IIA, implicit order 5; different step sequences, dense outputs
-/// and corner handling) agree on the DWZ scene's contacts: the same
+/// The three integrators (`solver.method`: DOP853, explicit order 8,
+/// Radau IIA, implicit order 5, and the exponential integrator, the modes
+/// exact and the remainder collocated; different step sequences, dense
+/// outputs and corner handling) agree on the DWZ scene's contacts: the same
 /// onsets to 1e-9 s, the same peak forces to 1e-7, the same tip and hub
 /// at the end to 1e-8 of the beam's length.
 #[test]
@@ -1021,13 +1022,20 @@ fn m_both_integrators_agree() {
         (onsets, peaks, sim.tip_position(), sim.theta())
     };
     let (on_e, pk_e, tip_e, th_e) = run(Method::Dop853);
-    let (on_r, pk_r, tip_r, th_r) = run(Method::Radau);
+    for other in [Method::Radau, Method::Exponential] {
+        let (on_r, pk_r, tip_r, th_r) = run(other);
+        agree(&on_e, &pk_e, tip_e, th_e, &on_r, &pk_r, tip_r, th_r);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn agree(on_e: &[f64], pk_e: &[f64], tip_e: [f64; 2], th_e: f64, on_r: &[f64], pk_r: &[f64], tip_r: [f64; 2], th_r: f64) {
     assert!(on_e.len() >= 10, "the scene's contacts: {}", on_e.len());
     assert_eq!(on_e.len(), on_r.len(), "onsets {on_e:?} against {on_r:?}");
-    for (a, b) in on_e.iter().zip(&on_r) {
+    for (a, b) in on_e.iter().zip(on_r) {
         assert!((a - b).abs() < 1e-9, "onset {a} against {b}");
     }
-    for (a, b) in pk_e.iter().zip(&pk_r) {
+    for (a, b) in pk_e.iter().zip(pk_r) {
         assert!((a - b).abs() < 1e-7 * a.abs(), "peak force {a} against {b}");
     }
     let length = scene("rotating_beam").beam.length;
@@ -1035,4 +1043,65 @@ fn m_both_integrators_agree() {
         assert!((tip_e[k] - tip_r[k]).abs() < 1e-8 * length, "tip {tip_e:?} against {tip_r:?}");
     }
     assert!((th_e - th_r).abs() < 1e-8, "theta {th_e} against {th_r}");
+}
+
+/// (n) The exponential integrator at 24 modes: the same states at every
+/// communication grid, a state encoded mid-contact continuing bit for bit,
+/// and its error against a tight DOP853 run within ten times the
+/// tolerance asked.
+#[test]
+fn n_exponential_integrator_grid_restore_and_error() {
+    use beamstop::kinds::rotating::stepper::Method;
+    let spec_with = |method: Method, tol: f64| {
+        let mut spec = scene("rotating_beam");
+        spec.n_modes = 24;
+        spec.solver.tolerance = tol;
+        spec.solver.method = method;
+        Arc::new(RotatingModel::new(&spec).unwrap())
+    };
+    let model = spec_with(Method::Exponential, 1e-8);
+    let t_end = 0.002;
+    let run = |times: &[f64]| {
+        let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+        let mut tips = Vec::new();
+        for &t in times {
+            sim.advance_to(t).unwrap();
+            tips.push((t, sim.tip_deflection()));
+        }
+        (sim.y().clone(), sim.drain_events(), tips)
+    };
+    let grid = |dt: f64| {
+        let mut v: Vec<f64> = (1..).map(|i| i as f64 * dt).take_while(|&t| t < t_end).collect();
+        v.push(t_end);
+        v
+    };
+    let (ya, ea, tips) = run(&grid(2e-5));
+    let (yb, eb, _) = run(&grid(1e-5 * std::f64::consts::PI / 3.0));
+    let (yc, ec, _) = run(&[t_end]);
+    assert!(ya.iter().zip(yb.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{ya} {yb}");
+    assert!(ya.iter().zip(yc.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{ya} {yc}");
+    assert!(ea == eb && ea == ec && ea.len() >= 4, "{} events", ea.len());
+    // Encoded mid-contact.
+    let onset = ea.iter().find(|e| matches!(e.kind, RotatingEventKind::Onset { .. }) && e.time > 0.0).map(|e| e.time).expect("a second contact");
+    let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    sim.advance_to(onset + 2e-5).unwrap();
+    let bytes = encode(&sim);
+    let mut restored = decode(model.clone(), &bytes).unwrap();
+    for s in [&mut sim, &mut restored] {
+        s.advance_to(t_end).unwrap();
+    }
+    assert!(sim.y().iter().zip(restored.y().iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(restored.y().iter().zip(ya.iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+    // Against DOP853 at 1e-13 on the same grid, over the largest deflection.
+    let reference = spec_with(Method::Dop853, 1e-13);
+    let mut r = RotatingSimulation::new(reference, 0.0).unwrap();
+    let mut worst: f64 = 0.0;
+    let mut largest: f64 = 0.0;
+    for (t, w) in &tips {
+        r.advance_to(*t).unwrap();
+        worst = worst.max((w - r.tip_deflection()).abs());
+        largest = largest.max(r.tip_deflection().abs());
+    }
+    eprintln!("(n) 24 modes, tolerance 1e-8: tip error {:.2e} of the largest deflection", worst / largest);
+    assert!(worst < 10.0 * 1e-8 * largest, "{worst:e} of {largest:e}");
 }

@@ -20,6 +20,7 @@ pub mod forcing;
 pub mod free;
 pub mod functional;
 pub mod lti;
+pub mod exponential;
 pub mod lu;
 pub mod modal_state;
 pub mod oscillator;

@@ -112,9 +112,61 @@ impl<'a> StepCurve<'a> {
 
     /// The first switch in the step, or `None`.
     pub fn first_switch(&self) -> Option<Switch> {
-        let located = first_switch(self, self.t0, self.t1, self.t0)?;
+        let located = match self.gap_speed_bound() {
+            Some(speed) => self.first_switch_advancing(speed)?,
+            None => first_switch(self, self.t0, self.t1, self.t0)?,
+        };
         let (i, slope) = located.at_zero[0];
         Some((located.time, self.watches()[i], slope))
+    }
+
+    /// For a step of the exponential integrator in free flight longer
+    /// than the shortest modal period: a bound on `|d gap / dt|` over it
+    /// (the modes' speeds along the gap's gradient at the step's start,
+    /// the hub's for a prescribed one).
+    fn gap_speed_bound(&self) -> Option<f64> {
+        let surface = self.phase.model.surface.as_ref()?;
+        let window = self.phase.model.shortest_period();
+        if self.phase.contact != Contact::Open || self.t1 - self.t0 <= window {
+            return None;
+        }
+        let (z, zd) = self.phase.coords(self.t0, self.y0);
+        let gradient = self.phase.model.beam.contact_generalized_force(&z, &surface.plane, 1.0);
+        match self.phase.model.prescribed() {
+            None => self.solver.speed_bound(gradient.as_slice()),
+            Some(p) => {
+                let hub = gradient[0].abs() * zd[0].abs().max(p.at(self.t1).1.abs());
+                self.solver.speed_bound(&gradient.as_slice()[1..]).map(|b| b + 1.5 * hub)
+            }
+        }
+    }
+
+    /// The first switch by conservative advancement: from each point the
+    /// gap cannot close before `gap / speed`; where that is shorter than
+    /// a quarter of the shortest modal period, the shared locator searches
+    /// the next period's window (samples, interior minima), and the
+    /// advancement resumes after it. No zero is passed while `speed`
+    /// bounds the gap's rate.
+    fn first_switch_advancing(&self, speed: f64) -> Option<crate::solve::switch::Located> {
+        let window = self.phase.model.shortest_period();
+        let mut t = self.t0;
+        while t < self.t1 {
+            let gap = -self.point(t).penetration;
+            if gap > 0.0 && gap > 0.25 * window * speed {
+                t = (t + gap / speed).min(self.t1);
+                if t >= self.t1 {
+                    // The end itself is a sample of the last window.
+                    break;
+                }
+                continue;
+            }
+            let b = (t + window).min(self.t1);
+            if let Some(located) = first_switch(self, t, b, t) {
+                return Some(located);
+            }
+            t = b;
+        }
+        None
     }
 
     /// The largest force on `[t0, end]` along `u` while pressed: its time

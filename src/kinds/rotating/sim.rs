@@ -47,7 +47,7 @@ use crate::error::SimError;
 use crate::kind::Reached;
 use crate::solve::Jet;
 use crate::solve::radau::{RadauOptions, Tol};
-use super::stepper::{self, Stepper};
+use super::stepper::{Method, Stepper};
 
 /// What happened at an event.
 #[derive(Clone, Debug, PartialEq)]
@@ -138,11 +138,6 @@ pub struct RotatingSimulation {
 
 pub use crate::solve::REANCHOR_AFTER;
 
-/// The state at `t1` inside a step from `(t0, y0)`, to full order.
-pub(super) fn full_order_state(phase: &Phase, options: &RadauOptions, t0: f64, y0: &DVector<f64>, t1: f64) -> Option<DVector<f64>> {
-    stepper::full_order_state(phase.model.spec.solver.method, phase, options, t0, y0, t1)
-}
-
 impl RotatingSimulation {
     /// A run of `spec` from its initial state at `start_time`.
     pub fn from_spec(spec: &RotatingSpec, start_time: f64) -> Result<Self, SimError> {
@@ -225,7 +220,12 @@ impl RotatingSimulation {
         let mut h_max = f64::INFINITY;
         let mut h_init = None;
         if let Some(s) = &m.surface {
-            h_max = m.shortest_period();
+            // The exponential integrator's dense output is exact for the
+            // modes' free motion: its switch search samples the step
+            // finely instead ([`super::events`]).
+            if m.spec.solver.method.resolve(n) != Method::Exponential {
+                h_max = m.shortest_period();
+            }
             if self.phase.contact != Contact::Open {
                 let c = self.phase.contact_point(&z, &zd);
                 let g = m.beam.contact_generalized_force(&z, &s.plane, 1.0);
@@ -333,7 +333,7 @@ impl RotatingSimulation {
             // larger of it and the collocation polynomial's value: that
             // would keep the polynomial's overshoot, an error of order 3).
             if tp > a && tp < b {
-                if let Some(y) = full_order_state(&self.phase, &self.options, a, &y0, tp) {
+                if let Some(y) = self.solver.state_inside(&self.phase, &self.options, a, &y0, tp) {
                     let (z, zd) = self.phase.coords(tp, &y);
                     peak = Some((tp, self.phase.contact_point(&z, &zd).force));
                 }
@@ -352,7 +352,7 @@ impl RotatingSimulation {
         if t <= s.t0 {
             return s.y0.clone();
         }
-        full_order_state(&self.phase, &self.options, s.t0, &s.y0, t).unwrap_or_else(|| {
+        self.solver.state_inside(&self.phase, &self.options, s.t0, &s.y0, t).unwrap_or_else(|| {
             let mut out = DVector::zeros(s.y0.len());
             if !self.solver.dense(t, &mut out) {
                 out = self.solver.y();

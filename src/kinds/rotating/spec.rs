@@ -140,7 +140,8 @@ pub struct SolverSpec {
     /// Relative local error of the integration.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
-    /// The integrator: `dop853` (explicit, the default) or `radau`.
+    /// The integrator: `auto` (the default: `exponential` from 16 modes
+    /// on, `dop853` below), `exponential`, `dop853` or `radau`.
     #[serde(default)]
     pub method: super::stepper::Method,
     /// Events allowed within one call to `advance_to`.
@@ -180,16 +181,16 @@ impl SolverSpec {
         self.max_steps_per_step.unwrap_or_else(|| {
             let micros = 12.0 + 0.03 * ((n_modes + 1) * (n_modes + 1)) as f64;
             let steps = 2e6 / micros;
-            match self.method {
-                super::stepper::Method::Dop853 => steps as u64,
+            match self.method.resolve(n_modes) {
                 super::stepper::Method::Radau => (0.1 * steps) as u64,
+                _ => steps as u64,
             }
         })
     }
 }
 
 /// Allowed ranges (the messages quote them).
-pub const N_MODES_MAX: usize = 40;
+pub const N_MODES_MAX: usize = 100;
 /// Hub speeds up to this many times the beam's first bending frequency
 /// (the first-order model stays valid far beyond the divergence of the
 /// zeroth-order one near 1x; past this, centrifugal stiffening makes the
@@ -444,7 +445,7 @@ mod tests {
         let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"e\": 0.8", "\"e\": 1.5")).unwrap_err();
         assert!(e.contains("surface.law.e = 1.5") && e.contains("[0, 1]"), "{e}");
         let e = RotatingSpec::from_json(&DWZ_SCENE.replace("n_modes\": 6", "n_modes\": 0")).unwrap_err();
-        assert!(e.contains("n_modes = 0") && e.contains("[1, 40]"), "{e}");
+        assert!(e.contains("n_modes = 0") && e.contains("[1, 100]"), "{e}");
         let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"theta_dot\"", "\"theta_dott\"")).unwrap_err();
         assert!(e.contains("unknown field `theta_dott`"), "{e}");
         let e = RotatingSpec::from_json(&DWZ_SCENE.replace("\"type\": \"hertz\"", "\"type\": \"hertz\", \"Q\": 1")).unwrap_err();

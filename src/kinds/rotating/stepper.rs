@@ -1,8 +1,9 @@
-//! The rotating beam's integrators behind one interface: DOP853
+//! The rotating beam's integrators behind one interface: the exponential
+//! integrator ([`crate::solve::exponential`]: the bending modes' linear
+//! response at the phase's start, with its hub speed's stiffening,
+//! propagated exactly, the remainder collocated; the default), DOP853
 //! ([`crate::solve::dop853`], explicit, order 8 with a 7th-order dense
-//! output; the default) and Radau IIA ([`crate::solve::radau`],
-//! L-stable, order 5; for runs whose highest modes make an explicit
-//! method's step fall to its stability limit).
+//! output) and Radau IIA ([`crate::solve::radau`], L-stable, order 5).
 //!
 //! Both take the phase's tolerances ([`RadauOptions`]: rtol, atol per
 //! component, the step cap), step on their own grid, and give a dense
@@ -18,18 +19,42 @@ use super::system::Phase;
 use crate::contact::Contact;
 use crate::structure::rotating::AccelerationScratch;
 use crate::solve::dop853::{Dop853, Rhs};
+use crate::solve::exponential::Exponential;
 use crate::solve::radau::{Radau, RadauOptions, Tol};
 
 /// Which integrator a rotating run uses (`solver.method`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
-    /// DOP853: the fastest where the step is set by accuracy (the
-    /// scenes' 6 to 40 modes over contact-length horizons).
+    /// The exponential integrator from [`EXPONENTIAL_FROM_MODES`] modes
+    /// on, DOP853 below.
     #[default]
+    Auto,
+    /// Exponential: steps set by the remainder (contact, hub speed
+    /// changes, nonlinear terms), not by the highest mode.
+    Exponential,
+    /// DOP853: explicit, its step bounded by the highest mode.
     Dop853,
     /// Radau IIA: steps not limited by the highest modal frequency.
     Radau,
+}
+
+/// From this many modes on, `auto` integrates exponentially: below, the
+/// highest mode is not stiff enough for the exact linear part to pay for
+/// its dense output's cost (docs/performance.md: DWZ at 6 modes, DOP853
+/// about 4 times faster at equal error; about even at 20; at 32 the
+/// exponential integrator about 2 times faster, at 64 more).
+pub const EXPONENTIAL_FROM_MODES: usize = 24;
+
+impl Method {
+    /// The integrator `self` means for `n_modes` modes.
+    pub fn resolve(self, n_modes: usize) -> Method {
+        match self {
+            Method::Auto if n_modes >= EXPONENTIAL_FROM_MODES => Method::Exponential,
+            Method::Auto => Method::Dop853,
+            m => m,
+        }
+    }
 }
 
 /// The phase's equations as DOP853's right-hand side (a copy of the
@@ -67,6 +92,7 @@ impl Rhs for PhaseRhs {
 
 #[derive(Clone, Debug)]
 pub enum Stepper {
+    Exponential(Box<Exponential<PhaseRhs>>),
     Dop853(Box<Dop853<PhaseRhs>>),
     Radau(Box<Radau>),
 }
@@ -74,7 +100,17 @@ pub enum Stepper {
 impl Stepper {
     /// An integrator at `(t0, y0)` for `phase` (not stepped).
     pub fn new(method: Method, phase: &Phase, t0: f64, y0: &DVector<f64>, options: &RadauOptions) -> Result<Self, String> {
-        match method {
+        match method.resolve(phase.n()) {
+            Method::Auto | Method::Exponential => {
+                let n = y0.len();
+                let (rtol, atol) = dop853_tolerances(options, n);
+                let modes = phase.linear_modes(t0, y0)?;
+                let solver = Exponential::new(PhaseRhs::new(phase, n), std::sync::Arc::new(modes), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
+                if !solver.y().iter().all(|x| x.is_finite()) {
+                    return Err("the start state is not finite".into());
+                }
+                Ok(Stepper::Exponential(Box::new(solver)))
+            }
             Method::Radau => {
                 let mut probe = phase.clone();
                 Ok(Stepper::Radau(Box::new(Radau::new(&mut probe, t0, y0, options.clone()).map_err(|e| e.to_string())?)))
@@ -97,6 +133,7 @@ impl Stepper {
 
     pub fn t(&self) -> f64 {
         match self {
+            Stepper::Exponential(s) => s.t(),
             Stepper::Dop853(s) => s.t,
             Stepper::Radau(s) => s.t(),
         }
@@ -105,6 +142,7 @@ impl Stepper {
     /// The state at [`Self::t`].
     pub fn y(&self) -> DVector<f64> {
         match self {
+            Stepper::Exponential(s) => DVector::from_column_slice(s.y()),
             Stepper::Dop853(s) => DVector::from_column_slice(s.y()),
             Stepper::Radau(s) => s.y().clone(),
         }
@@ -113,6 +151,13 @@ impl Stepper {
     /// One accepted step on the integrator's own grid: `[t0, t1]`.
     pub fn step(&mut self, phase: &mut Phase) -> Result<(f64, f64), String> {
         match self {
+            Stepper::Exponential(s) => {
+                let span = s.step().map_err(|e| format!("exponential integrator: {e:?}"))?;
+                if !s.y().iter().all(|x| x.is_finite()) {
+                    return Err("exponential integrator: the state is not finite".into());
+                }
+                Ok(span)
+            }
             Stepper::Dop853(s) => {
                 let span = s.step().map_err(|e| format!("DOP853: {e:?}"))?;
                 if !s.y().iter().all(|x| x.is_finite()) {
@@ -128,6 +173,7 @@ impl Stepper {
     /// The dense output over the last step at `t`; `false` before a step.
     pub fn dense(&self, t: f64, out: &mut DVector<f64>) -> bool {
         match self {
+            Stepper::Exponential(s) => s.dense(t, out.as_mut_slice()),
             Stepper::Dop853(s) => s.dense_at(t, out.as_mut_slice()),
             Stepper::Radau(s) => s.dense(t, out).is_ok(),
         }
@@ -136,14 +182,39 @@ impl Stepper {
     /// Its time derivative; `false` before a step.
     pub fn dense_derivative(&self, t: f64, out: &mut DVector<f64>) -> bool {
         match self {
+            Stepper::Exponential(s) => s.dense_derivative(t, out.as_mut_slice()),
             Stepper::Dop853(s) => s.dense_derivative_at(t, out.as_mut_slice()),
             Stepper::Radau(s) => s.dense_derivative(t, out).is_ok(),
+        }
+    }
+
+    /// The state at `t` inside the last step `[t0, t1]` from `y0`, to full
+    /// order: the exponential integrator's dense output is; the others
+    /// take a step of their own ([`full_order_state`]).
+    pub fn state_inside(&self, phase: &Phase, options: &RadauOptions, t0: f64, y0: &DVector<f64>, t: f64) -> Option<DVector<f64>> {
+        match self {
+            Stepper::Exponential(s) => {
+                let mut out = DVector::zeros(y0.len());
+                (s.dense(t, out.as_mut_slice()) && out.iter().all(|x| x.is_finite())).then_some(out)
+            }
+            Stepper::Dop853(_) => full_order_state(Method::Dop853, phase, options, t0, y0, t),
+            Stepper::Radau(_) => full_order_state(Method::Radau, phase, options, t0, y0, t),
+        }
+    }
+
+    /// A bound on the rate of `w . z` over the last step (the
+    /// exponential integrator's; `None` for the others).
+    pub fn speed_bound(&self, w: &[f64]) -> Option<f64> {
+        match self {
+            Stepper::Exponential(s) => s.speed_bound(w),
+            _ => None,
         }
     }
 
     /// Accepted and rejected steps so far.
     pub fn counts(&self) -> (u64, u64) {
         match self {
+            Stepper::Exponential(s) => s.counts(),
             Stepper::Dop853(s) => (s.n_accepted as u64, s.n_rejected as u64),
             Stepper::Radau(s) => (s.stats().accepted, s.stats().rejected),
         }
@@ -158,7 +229,8 @@ pub fn full_order_state(method: Method, phase: &Phase, options: &RadauOptions, t
     if t1 <= t0 || t1.is_nan() || t0.is_nan() {
         return None;
     }
-    let y = match method {
+    let y = match method.resolve(phase.n()) {
+        Method::Auto | Method::Exponential => return None,
         Method::Radau => {
             let mut phase = phase.clone();
             let o = RadauOptions { h_init: Some(t1 - t0), fixed_step: true, h_max: f64::INFINITY, ..options.clone() };

@@ -21,6 +21,7 @@ use nalgebra::{DMatrix, DVector};
 use super::model::RotatingModel;
 use crate::structure::rotating::AccelerationScratch;
 use crate::contact::Contact;
+use crate::solve::exponential::LinearModes;
 use crate::solve::radau::ImplicitSystem;
 
 /// The contact quantities at one state.
@@ -68,6 +69,28 @@ impl Phase {
 
     pub fn dim(&self) -> usize {
         self.extras() + 3
+    }
+
+    /// The linear part an exponential integrator propagates exactly, frozen
+    /// at `(t, y)`: the bending modes with the hub speed's centrifugal
+    /// stiffening and the gravity's axial load there, the hub (when
+    /// torque-driven) through the undeflected mass matrix; `J0 z'' + C z' +
+    /// K0 z`, everything else (the deflection's share of `J`, Coriolis
+    /// terms, the change of the hub speed, contact) in the remainder.
+    pub fn linear_modes(&self, t: f64, y: &DVector<f64>) -> Result<LinearModes, String> {
+        let n = self.n();
+        let beam = &self.model.beam;
+        let (z, zd) = self.coords(t, y);
+        let (thd, sn) = (zd[0], z[0].sin());
+        let stiffness = &beam.k - &self.model.m_minus_d * (thd * thd) - &self.model.s_geo * (beam.params.gravity * sn);
+        match self.model.prescribed() {
+            Some(_) => LinearModes::new(&beam.m, &stiffness, &beam.damping),
+            None => {
+                let mass = beam.mass_matrix(&DVector::zeros(n + 1));
+                let border = |b: &DMatrix<f64>| DMatrix::from_fn(n + 1, n + 1, |i, j| if i == 0 || j == 0 { 0.0 } else { b[(i - 1, j - 1)] });
+                LinearModes::new(&mass, &border(&stiffness), &border(&beam.damping))
+            }
+        }
     }
 
     /// `(z, z')` at time `t` from `y`.
