@@ -291,7 +291,7 @@ impl Model {
             inputs,
             initial,
             event_tolerance: scene.solver.event_tolerance,
-            integration_tolerance: scene.solver.integration_tolerance,
+            integration_tolerance: crate::kinds::modal::scene::collocation_tolerance(scene.solver.integration_tolerance),
             speed_limit: crate::kinds::modal::interface::Limits::of(scene).velocity_range().max,
             max_events_per_step: scene.solver.max_events_per_step,
             max_probes_per_step: scene.solver.max_probes_per_step.unwrap_or_else(|| default_probe_budget(n)),

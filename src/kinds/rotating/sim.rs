@@ -211,7 +211,7 @@ impl RotatingSimulation {
     fn phase_options(&self, t: f64, y: &DVector<f64>) -> RadauOptions {
         let m = &self.model;
         let n = m.n_modes();
-        let tol = m.spec.solver.tolerance;
+        let tol = m.spec.solver.integration_rtol(n);
         let length = m.beam.params.length;
         let ell = m.tip_radius();
         let (z, zd) = self.phase.coords(t, y);
