@@ -155,7 +155,7 @@ impl<'a> StepCurve<'a> {
             if gap > 0.0 && gap > 0.25 * window * speed {
                 t = (t + gap / speed).min(self.t1);
                 if t >= self.t1 {
-                    // The end itself is a sample of the last window.
+                    // The gap cannot close before the step's end.
                     break;
                 }
                 continue;

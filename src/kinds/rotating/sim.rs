@@ -1,16 +1,17 @@
 //! One run of a rotating hub beam: the whole motion integrated (the
-//! equations are nonlinear everywhere) by DOP853 or Radau IIA
-//! ([`super::stepper`]), restarted at every switch of the contact law and
+//! equations are nonlinear everywhere) by the exponential integrator,
+//! DOP853 or Radau IIA ([`super::stepper`]), restarted at every switch of the contact law and
 //! at every change of the torque input.
 //!
 //! **Step grid.** After a restart the integrator starts from the restart
 //! state (the anchor) with options and a first step that depend only on
 //! the anchor, and steps on its own grid (`step(sys, f64::MAX)`):
 //! communication times never shorten a step. A state asked for inside a
-//! step (an output, a switch) is computed from the step's start by the
-//! same method to full order (where the dense output has one order less,
-//! Radau's collocation polynomial two; in contact, by pieces shrinking
-//! toward it, [`super::stepper::full_order_state`]), so results at a given
+//! step (an output, a switch) is to full order: the exponential
+//! integrator's dense output is; DOP853 and Radau take a step of their own
+//! from the step's start (their dense outputs have one order less and two;
+//! in contact, by pieces shrinking toward it,
+//! [`super::stepper::full_order_state`]), so results at a given
 //! time do not depend on the communication step, and a restored run
 //! rebuilds the same steps from its anchor (`codec.rs`).
 //!
@@ -25,14 +26,18 @@
 //! run restarts from the end of its last step, so a restored state replays
 //! at most that many steps.
 //!
-//! **Step cap.** Open with a surface: the shortest modal period. In
+//! **Step cap.** Open with a surface: the shortest modal period (DOP853
+//! and Radau; the exponential integrator's switch search advances
+//! conservatively through a longer step instead, [`super::events`]). In
 //! contact: also a quarter of the linearised contact period
 //! `2 pi / sqrt(1.5 K sqrt(p) / m)`, `m = 1 / (g^T J^-1 g)` the tip's
 //! effective mass along the normal (`g` the gap's gradient), `p` the larger
 //! of the anchor's penetration and the deepest one a mass `m` arriving at
 //! the onset speed reaches, `(5 m v0^2 / 4 K)^(2/5)`. A push starting at
 //! the surface (its force growing as `t^1.5`) takes a first step of
-//! `tol^(2/7)` of that quarter period.
+//! `tol^(2/7)` of that quarter period. `tol` is what
+//! [`super::spec::SolverSpec::integration_rtol`] makes of
+//! `solver.tolerance`.
 
 use std::sync::Arc;
 

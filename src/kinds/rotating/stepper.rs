@@ -1,16 +1,18 @@
 //! The rotating beam's integrators behind one interface: the exponential
 //! integrator ([`crate::solve::exponential`]: the bending modes' linear
 //! response at the phase's start, with its hub speed's stiffening,
-//! propagated exactly, the remainder collocated; the default), DOP853
-//! ([`crate::solve::dop853`], explicit, order 8 with a 7th-order dense
-//! output) and Radau IIA ([`crate::solve::radau`], L-stable, order 5).
+//! propagated exactly, the remainder collocated; `auto` from 24 modes
+//! on), DOP853 ([`crate::solve::dop853`], explicit, order 8 with a
+//! 7th-order dense output; `auto` below 24 modes) and Radau IIA
+//! ([`crate::solve::radau`], L-stable, order 5).
 //!
-//! Both take the phase's tolerances ([`RadauOptions`]: rtol, atol per
+//! All three take the phase's tolerances ([`RadauOptions`]: rtol, atol per
 //! component, the step cap), step on their own grid, and give a dense
 //! output over the last accepted step with its time derivative (the
-//! switch locator's rates). A state inside a step to full order is a
-//! step of the same method from the step's start, in contact several
-//! shrinking toward it ([`full_order_state`]).
+//! switch locator's rates). A state inside a step to full order is the
+//! exponential integrator's dense output, or a step of DOP853 or Radau
+//! from the step's start, in contact several shrinking toward it
+//! ([`full_order_state`]).
 
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
