@@ -16,6 +16,7 @@
 //! reads off it at one point, [`CoupledSample`] and [`CoordinateBounds`]
 //! (`probe.rs`).
 
+mod eigen;
 mod loads;
 mod probe;
 mod segment;

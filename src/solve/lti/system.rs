@@ -88,7 +88,7 @@ impl CoupledSystem {
                 (v.dot(&(&ky * v)) / v.norm_squared()).sqrt()
             });
             let dq = q.transpose() * &dy * &q;
-            let a = faer::Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
+            let a = DMatrix::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
                 (true, true) => 0.0,
                 (true, false) => {
                     if j - n == i {
@@ -106,21 +106,13 @@ impl CoupledSystem {
                 }
                 (false, false) => -dq[(i - n, j - n)],
             });
-            let e = a.eigen().map_err(|e| LtiError::Eigen(format!("{e:?}")))?;
-            let s = e.S();
-            let eig = DVector::from_fn(2 * n, |k, _| C64::new(s[k].re, s[k].im));
-            // The dense products below run in faer (blocked, O(n^3) once per
-            // phase); the result is handed on as nalgebra matrices.
-            type Cx = faer::c64;
-            let mut vu = e.U().to_owned();
-            for j in 0..2 * n {
-                let norm = vu.col(j).norm_l2();
-                for i in 0..2 * n {
-                    vu[(i, j)] = vu[(i, j)] / norm;
-                }
+            let (eig, mut vu) = super::eigen::real_eigen(a).map_err(LtiError::Eigen)?;
+            for mut column in vu.column_iter_mut() {
+                let norm = column.norm();
+                column.unscale_mut(norm);
             }
-            let vu_inv = faer::linalg::solvers::DenseSolveCore::inverse(&vu.partial_piv_lu());
-            let cond = vu.norm_l2() * vu_inv.norm_l2();
+            let vu_inv = vu.clone().lu().try_inverse().ok_or(LtiError::IllConditioned(f64::INFINITY))?;
+            let cond = vu.norm() * vu_inv.norm();
             if !(cond < 1e10) {
                 return Err(LtiError::IllConditioned(cond));
             }
@@ -128,9 +120,8 @@ impl CoupledSystem {
             // Rayleigh quotient `(l A r) / (l r)` with the left eigenvectors
             // (rows of the inverse) is second-order accurate. `A U` from the
             // blocks: `[W U_b; -W U_t - D_q U_b]`.
-            let dq_c = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(dq[(i, j)], 0.0));
-            let damped = &dq_c * vu.subrows(n, n);
-            let au = faer::Mat::<Cx>::from_fn(2 * n, 2 * n, |i, j| {
+            let damped = real_times_complex(&dq, &vu.rows(n, n).into_owned());
+            let au = DMatrix::<C64>::from_fn(2 * n, 2 * n, |i, j| {
                 if i < n {
                     vu[(i + n, j)] * w_freq[i]
                 } else {
@@ -138,34 +129,27 @@ impl CoupledSystem {
                 }
             });
             let eig = DVector::from_fn(2 * n, |k, _| {
-                let (mut lr, mut lar) = (Cx::new(0.0, 0.0), Cx::new(0.0, 0.0));
+                let (mut lr, mut lar) = (C64::new(0.0, 0.0), C64::new(0.0, 0.0));
                 for i in 0..2 * n {
                     lr += vu_inv[(k, i)] * vu[(i, k)];
                     lar += vu_inv[(k, i)] * au[(i, k)];
                 }
                 let refined = lar / lr;
                 if refined.re.is_finite() && refined.im.is_finite() && lr.norm() > 0.5 {
-                    C64::new(refined.re, refined.im)
+                    refined
                 } else {
                     eig[k]
                 }
             });
-            let qc = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(i, j)], 0.0));
-            let top = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(i, j)] / w_freq[j], 0.0));
-            let v_top = &top * vu.subrows(0, n);
-            let v_bottom = &qc * vu.subrows(n, n);
-            let scaled_qt = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(j, i)] * w_freq[i], 0.0));
-            let qt = faer::Mat::<Cx>::from_fn(n, n, |i, j| Cx::new(q[(j, i)], 0.0));
-            let v_inv_left = vu_inv.subcols(0, n) * &scaled_qt;
-            let v_inv_right = vu_inv.subcols(n, n) * &qt;
-            let v = DMatrix::from_fn(2 * n, 2 * n, |i, j| {
-                let x = if i < n { v_top[(i, j)] } else { v_bottom[(i - n, j)] };
-                C64::new(x.re, x.im)
-            });
-            let v_inv = DMatrix::from_fn(2 * n, 2 * n, |i, j| {
-                let x = if j < n { v_inv_left[(i, j)] } else { v_inv_right[(i, j - n)] };
-                C64::new(x.re, x.im)
-            });
+            let top = DMatrix::<f64>::from_fn(n, n, |i, j| q[(i, j)] / w_freq[j]);
+            let v_top = real_times_complex(&top, &vu.rows(0, n).into_owned());
+            let v_bottom = real_times_complex(&q, &vu.rows(n, n).into_owned());
+            let scaled_qt = DMatrix::<f64>::from_fn(n, n, |i, j| q[(j, i)] * w_freq[i]);
+            let qt = q.transpose();
+            let v_inv_left = complex_times_real(&vu_inv.columns(0, n).into_owned(), &scaled_qt);
+            let v_inv_right = complex_times_real(&vu_inv.columns(n, n).into_owned(), &qt);
+            let v = DMatrix::from_fn(2 * n, 2 * n, |i, j| if i < n { v_top[(i, j)] } else { v_bottom[(i - n, j)] });
+            let v_inv = DMatrix::from_fn(2 * n, 2 * n, |i, j| if j < n { v_inv_left[(i, j)] } else { v_inv_right[(i, j - n)] });
             (eig, v, v_inv)
         };
         // A real system's eigenvalues come in conjugate pairs (adjacent from
@@ -300,6 +284,21 @@ impl std::fmt::Debug for SystemCache {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "SystemCache({} decompositions)", self.len())
     }
+}
+
+/// `a b` for real `a` and complex `b`, as two real products (nalgebra's
+/// real matrix product is blocked; its complex one is not).
+fn real_times_complex(a: &DMatrix<f64>, b: &DMatrix<C64>) -> DMatrix<C64> {
+    let re = a * b.map(|z| z.re);
+    let im = a * b.map(|z| z.im);
+    re.zip_map(&im, C64::new)
+}
+
+/// `a b` for complex `a` and real `b`.
+fn complex_times_real(a: &DMatrix<C64>, b: &DMatrix<f64>) -> DMatrix<C64> {
+    let re = a.map(|z| z.re) * b;
+    let im = a.map(|z| z.im) * b;
+    re.zip_map(&im, C64::new)
 }
 
 /// One step of first-order refinement of the eigenvectors of a symmetric
