@@ -53,7 +53,13 @@ pub fn kind_of(scene: &Json) -> Result<&'static dyn Kind, String> {
         )),
         (None, _) => {
             let names: Vec<&str> = kinds().map(|k| k.name()).collect();
-            Err(format!("scene: not a scene of any kind this build knows ({})", names.join(", ")))
+            let have = if names.is_empty() { "none".to_string() } else { names.join(", ") };
+            if let Some((kind, key, _)) = crate::kinds::KINDS.iter().find(|(_, key, built)| !built && scene.get(key).is_some()) {
+                return Err(format!(
+                    "scene: a {kind} scene (it has the key '{key}'), and this binary was built without the {kind} kind (it has: {have}); package the scene with `beamstop package`, which picks a binary that has it"
+                ));
+            }
+            Err(format!("scene: not a scene of any kind this build knows ({have})"))
         }
     }
 }

@@ -12,6 +12,27 @@
 //! [`package`]) and the tools ([`orbits`], the command line), written
 //! once against the contract. Nothing below the FMI layer knows about FMI.
 
+// A build of part of the library (an FMU variant: some kinds, laws and
+// standards; see Cargo.toml's features) leaves the rest unused: only the
+// full build, which the tests and lints use, warns about unused code.
+#![cfg_attr(
+    not(all(
+        feature = "modal",
+        feature = "rotating",
+        feature = "restitution",
+        feature = "spring-dashpot",
+        feature = "power-law",
+        feature = "fmi2",
+        feature = "fmi3"
+    )),
+    allow(dead_code, unused_imports, unused_variables, unused_mut, unreachable_code, unreachable_patterns)
+)]
+
+// `beamstop::` paths inside the crate too: the FMI entry points
+// (src/fmi2/api.rs, src/fmi3/api.rs and absent.rs) are compiled here for
+// the full build and by fmu/ for a variant, from the same files.
+extern crate self as beamstop;
+
 pub mod codec;
 pub mod component;
 pub mod contact;

@@ -328,9 +328,13 @@ pub trait ContactLaw: Send + Sync + std::fmt::Debug {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Law {
+    #[cfg(feature = "restitution")]
     Restitution(Restitution),
+    #[cfg(feature = "spring-dashpot")]
     SpringDashpot(SpringDashpot),
+    #[cfg(feature = "power-law")]
     Hertz(Hertz),
+    #[cfg(feature = "power-law")]
     PowerLaw(PowerLaw),
 }
 
@@ -339,12 +343,93 @@ impl std::ops::Deref for Law {
 
     fn deref(&self) -> &(dyn ContactLaw + 'static) {
         match self {
+            #[cfg(feature = "restitution")]
             Law::Restitution(l) => l,
+            #[cfg(feature = "spring-dashpot")]
             Law::SpringDashpot(l) => l,
+            #[cfg(feature = "power-law")]
             Law::Hertz(l) => l,
+            #[cfg(feature = "power-law")]
             Law::PowerLaw(l) => l,
+            #[cfg(not(any(feature = "restitution", feature = "spring-dashpot", feature = "power-law")))]
+            _ => unreachable!("a build without contact laws reads no law"),
         }
     }
+}
+
+impl Law {
+    /// The law's scene name, its `"type"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            #[cfg(feature = "restitution")]
+            Law::Restitution(_) => "restitution",
+            #[cfg(feature = "spring-dashpot")]
+            Law::SpringDashpot(_) => "spring_dashpot",
+            #[cfg(feature = "power-law")]
+            Law::Hertz(_) => "hertz",
+            #[cfg(feature = "power-law")]
+            Law::PowerLaw(_) => "power_law",
+            #[cfg(not(any(feature = "restitution", feature = "spring-dashpot", feature = "power-law")))]
+            _ => unreachable!("a build without contact laws reads no law"),
+        }
+    }
+}
+
+/// Every law's scene name and whether this build carries it (the features
+/// `restitution`, `spring-dashpot` and `power-law`, which has both Hertz
+/// and the power law: see Cargo.toml).
+pub const LAWS: [(&str, bool); 4] = [
+    ("restitution", cfg!(feature = "restitution")),
+    ("spring_dashpot", cfg!(feature = "spring-dashpot")),
+    ("hertz", cfg!(feature = "power-law")),
+    ("power_law", cfg!(feature = "power-law")),
+];
+
+/// The law types a scene file uses: the `type` of every object under a
+/// `law` key, each once, in the order met, with where it was met.
+pub fn laws_in(scene: &serde_json::Value) -> Vec<(String, String)> {
+    fn walk(v: &serde_json::Value, path: &str, out: &mut Vec<(String, String)>) {
+        match v {
+            serde_json::Value::Object(map) => {
+                for (key, value) in map {
+                    let here = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
+                    if key == "law" {
+                        if let Some(t) = value.get("type").and_then(|t| t.as_str()) {
+                            if !out.iter().any(|(name, _)| name == t) {
+                                out.push((t.to_string(), format!("{here}.type")));
+                            }
+                        }
+                    }
+                    walk(value, &here, out);
+                }
+            }
+            serde_json::Value::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    walk(item, &format!("{path}[{i}]"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    walk(scene, "", &mut out);
+    out
+}
+
+/// Refuses a scene that uses a law this build does not carry, naming the
+/// field, the law and the laws it has (an FMU binary built for another
+/// scene; `beamstop package` picks one that carries it).
+pub fn check_laws_built(scene: &serde_json::Value) -> Result<(), String> {
+    for (name, field) in laws_in(scene) {
+        if LAWS.iter().any(|(known, built)| *known == name && !built) {
+            let have: Vec<&str> = LAWS.iter().filter(|(_, built)| *built).map(|(n, _)| *n).collect();
+            return Err(format!(
+                "{field} = \"{name}\": this binary was built without the {name} law (it has: {}); package the scene with `beamstop package`, which picks a binary that has it",
+                if have.is_empty() { "none".to_string() } else { have.join(", ") }
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The damping of a compliant stop whose spring is `K p^n` (Hertz, power

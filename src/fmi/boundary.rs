@@ -67,6 +67,13 @@ pub trait Shell {
     fn core(&mut self) -> &mut Instance;
 }
 
+/// The FMI 2.0 shell is the core itself.
+impl Shell for Instance {
+    fn core(&mut self) -> &mut Instance {
+        self
+    }
+}
+
 /// Runs `body` on a shell's instance inside the panic boundary, after the
 /// one check of the shell's state-machine table.
 pub fn run<S: Shell, F: Call>(shell: &mut S, f: F, body: impl FnOnce(&mut S) -> CallResult) -> c_int {

@@ -8,21 +8,15 @@
 
 use libc::{c_char, size_t};
 
-use crate::fmi::boundary::{guarded, null_argument as null, run, slice, slice_mut, string, Shell};
-use crate::fmi::instance::{CallResult, Instance};
-use crate::fmi::states;
-use crate::fmi::logging::Logger;
-use crate::fmi::resource::resource_dir;
-use crate::fmi::serialize::{deserialize, serialize};
+use beamstop::fmi::boundary::{guarded, null_argument as null, run, slice, slice_mut, string};
+use beamstop::fmi::instance::{CallResult, Instance};
+use beamstop::fmi::states;
+use beamstop::fmi::logging::Logger;
+use beamstop::fmi::resource::resource_dir;
+use beamstop::fmi::serialize::{deserialize, serialize};
 
-use super::state_machine::Function;
-use super::types::*;
-
-impl Shell for Instance {
-    fn core(&mut self) -> &mut Instance {
-        self
-    }
-}
+use beamstop::fmi2::state_machine::Function;
+use beamstop::fmi2::types::*;
 
 /// Runs `body` on the instance behind `c` inside the panic boundary.
 fn call(c: fmi2Component, f: Function, body: impl FnOnce(&mut Instance) -> CallResult) -> fmi2Status {

@@ -2,6 +2,7 @@
 //! `api` holds the C entry points, `state_machine` the table of legal
 //! calls, `types` the C types, `description` the modelDescription.xml.
 
+#[cfg(feature = "fmi2")]
 pub mod api;
 pub mod description;
 pub mod state_machine;

@@ -12,13 +12,13 @@
 
 use libc::size_t;
 
-use crate::fmi::boundary::{null_argument, slice};
-use crate::fmi::logging::Logger;
-use crate::fmi::Status;
+use beamstop::fmi::boundary::{null_argument, slice};
+use beamstop::fmi::logging::Logger;
+use beamstop::fmi::Status;
 
 use super::api::{call, check_values, fail, time_vr};
-use super::state_machine::Function;
-use super::types::*;
+use beamstop::fmi3::state_machine::Function;
+use beamstop::fmi3::types::*;
 
 const NO_CLOCKS: &str = "this FMU has no clocks";
 const NO_CONFIGURATION: &str = "this FMU has no structural parameters, so no configuration mode";

@@ -12,16 +12,16 @@ use std::cell::{Cell, UnsafeCell};
 
 use libc::{c_char, size_t};
 
-use crate::fmi::boundary::{guarded, null_argument, run, slice, slice_mut, string};
-use crate::fmi::instance::{CallResult, Instance, Modes};
-use crate::fmi::states;
-use crate::fmi::logging::Logger;
-use crate::fmi::resource::resource_dir;
-use crate::fmi::serialize::{deserialize, serialize};
+use beamstop::fmi::boundary::{guarded, null_argument, run, slice, slice_mut, string};
+use beamstop::fmi::instance::{CallResult, Instance, Modes};
+use beamstop::fmi::states;
+use beamstop::fmi::logging::Logger;
+use beamstop::fmi::resource::resource_dir;
+use beamstop::fmi::serialize::{deserialize, serialize};
 
-use super::instance::{Instance3, Options};
-use super::state_machine::Function;
-use super::types::*;
+use beamstop::fmi3::instance::{Instance3, Options};
+use beamstop::fmi3::state_machine::Function;
+use beamstop::fmi3::types::*;
 
 /// What an fmi3Instance points to: the instance and whether a call is
 /// running in it (an intermediate-update callback that calls back is
@@ -426,7 +426,7 @@ pub unsafe extern "C" fn fmi3DoStep(
             return Err(null_argument(&i.core, f, "an output argument"));
         }
         let result = i.do_step(currentCommunicationPoint, communicationStepSize);
-        let stepped = result.unwrap_or(super::instance::Stepped { event_handling_needed: false, early_return: false });
+        let stepped = result.unwrap_or(beamstop::fmi3::instance::Stepped { event_handling_needed: false, early_return: false });
         *eventHandlingNeeded = if stepped.event_handling_needed { FMI3_TRUE } else { FMI3_FALSE };
         *earlyReturn = if stepped.early_return { FMI3_TRUE } else { FMI3_FALSE };
         *terminateSimulation = FMI3_FALSE;

@@ -5,7 +5,9 @@
 //! a step, `state_machine` the table of legal calls, `types` the C types,
 //! `description` the modelDescription.xml.
 
+#[cfg(feature = "fmi3")]
 pub mod absent;
+#[cfg(feature = "fmi3")]
 pub mod api;
 pub mod description;
 pub mod instance;

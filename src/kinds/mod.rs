@@ -7,7 +7,12 @@
 pub mod modal;
 pub mod rotating;
 
-#[cfg(feature = "beam")]
+#[cfg(feature = "modal")]
 inventory::submit! { crate::kind::Registration(&modal::ModalKind) }
-#[cfg(feature = "beam")]
+#[cfg(feature = "rotating")]
 inventory::submit! { crate::kind::Registration(&rotating::RotatingKind) }
+
+/// Every kind this library ships: its name, the top-level key its scene
+/// files are recognized by, and whether this build carries it (the
+/// features `modal` and `rotating`).
+pub const KINDS: [(&str, &str, bool); 2] = [("modal", "structure", cfg!(feature = "modal")), ("rotating", "beam", cfg!(feature = "rotating"))];

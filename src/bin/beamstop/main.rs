@@ -5,6 +5,9 @@
 //!   beamstop run [scene.json] [--stop T] [--step H] [--out DIR]
 //!                                        simulate a scene natively, write CSV results
 //!   beamstop describe [--fmi3] scene.json  print the modelDescription.xml of a scene
+//!   beamstop describe [--fmi3] --contents scene.json
+//!                                        what the scene's FMU binary carries
+//!   beamstop variants                    the prebuilt FMU binaries and their Cargo features
 //!   beamstop model-descriptions          rewrite modelDescription/<Name>.xml (FMI 3.0: modelDescription/fmi3/) for scenes/
 //!   beamstop check scene.json ...        validate scenes
 //!   beamstop modes SUPPORT N [X ...]     dimensionless beam modes as JSON
@@ -14,8 +17,8 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use beamstop::package::{library_beside_executable, write_fmu, FmiVersion};
 use beamstop::kind::Run;
+use beamstop::package::{variants, write_fmu, FmiVersion};
 use beamstop::variables::Value;
 use beamstop::Component;
 
@@ -26,6 +29,11 @@ const USAGE: &str = "usage:
   beamstop run [scene.json] [--stop T] [--step H] [--out DIR]
                                           simulate a scene natively (default: scenes/pinned_beam.json)
   beamstop describe [--fmi3] scene.json  print the scene's modelDescription.xml (FMI 2.0, or 3.0)
+  beamstop describe [--fmi3] --contents scene.json
+                                          what its FMU's binary carries: the smallest prebuilt variant
+                                          with its kind and laws (kinds, laws, solvers, standard)
+  beamstop variants                      the prebuilt FMU binaries (target/variants/<name>) and the
+                                          Cargo features of fmu/ that build them (scripts/build-variants)
   beamstop model-descriptions            rewrite modelDescription/<Name>.xml (FMI 2.0) and
                                           modelDescription/fmi3/<Name>.xml for every scene in scenes/
   beamstop check scene.json ...          validate scene files
@@ -65,14 +73,37 @@ fn package(args: &[String]) -> Result<(), String> {
     let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
     // Validate everything first: no FMU is written from an invalid scene.
     let scenes: Vec<Component> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
-    let binary = library_beside_executable("beamstop_fmu")?;
+    // Each scene gets the smallest prebuilt binary that carries it.
+    let dir = variants::variants_dir()?;
+    let binaries: Vec<PathBuf> = scenes.iter().map(|s| variants::binary(&dir, variants::covering(s)?, version)).collect::<Result<_, _>>()?;
     let out = root().join("target").join(match version {
         FmiVersion::Fmi2 => "fmu",
         FmiVersion::Fmi3 => "fmu3",
     });
-    for scene in &scenes {
-        let path = write_fmu(scene, &binary, &out, version)?;
+    for (scene, binary) in scenes.iter().zip(&binaries) {
+        let path = write_fmu(scene, binary, &out, version)?;
         println!("{}", path.display());
+    }
+    Ok(())
+}
+
+/// `beamstop variants`: one line per prebuilt FMU binary, its directory
+/// name and the Cargo features of fmu/ that build it (for
+/// scripts/build-variants).
+fn list_variants() {
+    for version in [FmiVersion::Fmi2, FmiVersion::Fmi3] {
+        for v in &variants::VARIANTS {
+            println!("{} {}", v.build_name(version), v.features(version).join(","));
+        }
+    }
+}
+
+/// `beamstop describe --contents scene.json`: the binary an FMU of the
+/// scene carries (variant, kinds, laws, solvers, standard).
+fn describe_contents(scene: &Component, version: FmiVersion) -> Result<(), String> {
+    let variant = variants::covering(scene)?;
+    for (part, names) in variant.contents(version) {
+        println!("{part}: {}", names.join(", "));
     }
     Ok(())
 }
@@ -199,8 +230,13 @@ fn main() -> ExitCode {
         Some("run") => run(&args[1..]),
         Some("describe") => match version(&args[1..]) {
             (version, rest) if rest.len() == 1 => load(Path::new(&rest[0])).and_then(|s| version.model_description(&s)).map(|x| print!("{x}")),
+            (version, rest) if rest.len() == 2 && rest[0] == "--contents" => load(Path::new(&rest[1])).and_then(|s| describe_contents(&s, version)),
             _ => Err(USAGE.into()),
         },
+        Some("variants") => {
+            list_variants();
+            Ok(())
+        }
         Some("model-descriptions") => builtin_scenes().and_then(|files| {
             for (version, dir) in [(FmiVersion::Fmi2, root().join("modelDescription")), (FmiVersion::Fmi3, root().join("modelDescription").join("fmi3"))] {
                 std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;

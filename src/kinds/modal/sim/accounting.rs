@@ -128,6 +128,7 @@ impl Simulation {
                 pressed_spring(&iq)
             }
             Segment::Free { .. } => 0.0,
+            #[cfg(feature = "power-law")]
             Segment::Integrated(seg) => seg.phase.contacts.iter().position(|c| c.stop == i).map_or(0.0, |k| seg.totals_at(k, t).0),
             Segment::Coupled { phase, segment } => match self.state.stops[i].contact {
                 Contact::Held => {
@@ -200,6 +201,7 @@ impl Simulation {
                 self.state.stops[i].impulse += p;
             }
         }
+        #[cfg(feature = "power-law")]
         if let Segment::Integrated(seg) = &self.segment {
             for (k, c) in seg.phase.contacts.iter().enumerate() {
                 self.state.stops[c.stop].dissipated += seg.totals_at(k, t).1.max(0.0);
@@ -210,6 +212,7 @@ impl Simulation {
     /// Energy an integrated phase's contacts dissipated since its anchor.
     fn segment_dissipation(&self, i: usize) -> f64 {
         match &self.segment {
+            #[cfg(feature = "power-law")]
             Segment::Integrated(seg) => seg.phase.contacts.iter().position(|c| c.stop == i).map_or(0.0, |k| seg.totals_at(k, self.state.time).1.max(0.0)),
             _ => 0.0,
         }
@@ -262,6 +265,7 @@ impl Simulation {
                 }
                 None => 0.0,
             },
+            #[cfg(feature = "power-law")]
             Segment::Integrated(seg) => seg.held_push(stop, t, state).map_or(0.0, |(_, size)| size),
             Segment::Free { .. } => 0.0,
         }
@@ -278,6 +282,7 @@ impl Simulation {
                 None => 0.0,
             },
             // lambda = -side push (the push is the contact's force).
+            #[cfg(feature = "power-law")]
             Segment::Integrated(seg) => seg.held_push(stop, t, state).map_or(0.0, |(push, _)| -self.model.stops[stop].geometry.side * push),
             Segment::Free { .. } => 0.0,
         }

@@ -160,7 +160,7 @@ impl Simulation {
         check_numbers(&state)?;
         check_contacts(&state, &model)?;
         let sim = Simulation::restore(model, inputs, state).map_err(|e| e.to_string())?;
-        if sim.state.scan < sim.state.time && !matches!(sim.segment, super::Segment::Integrated(_)) {
+        if sim.state.scan < sim.state.time && !sim.segment.is_integrated() {
             return Err(format!(
                 "simulation state: times out of order: search position {} before the time {} (only an integrated phase stopped at a switch keeps one)",
                 sim.state.scan, sim.state.time
@@ -312,7 +312,10 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
     // Stopped just before an integrated phase's switch (which the restore
     // found again at this very time): the stops it switches are already
     // past their functions' zero.
+    #[cfg(feature = "power-law")]
     let switching = sim.stops_at_pending_switch();
+    #[cfg(not(feature = "power-law"))]
+    let switching: Vec<usize> = Vec::new();
     let integrated = model.stops.iter().any(|s| s.law.states().iter().any(|c| s.law.term(*c) == crate::contact::PhaseTerm::Nonlinear));
     for (i, stop) in model.stops.iter().enumerate() {
         let name = &stop.name;
@@ -369,7 +372,7 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
         }
         // An integrated phase's flags are its events' own, read only at its
         // anchor (the search tests signs from there).
-        let flag_read = !matches!(sim.segment, super::Segment::Integrated(_)) || st.time == st.anchor_time;
+        let flag_read = !sim.segment.is_integrated() || st.time == st.anchor_time;
         if contact == Contact::Open && counters.departing[0] && flag_read && at.p.abs() <= at.level_p {
             // On the stop and treated as leaving it: it must not be pressed in.
             let geo = &sim.geometries[i];
@@ -427,7 +430,7 @@ pub(super) const ON_BOUNDARY: f64 = 1e-9;
 /// signs and never reads the flags.
 fn check_departing(sim: &Simulation) -> Result<(), String> {
     let st = &sim.state;
-    if matches!(sim.segment, super::Segment::Integrated(_)) {
+    if sim.segment.is_integrated() {
         return Ok(());
     }
     let free = matches!(sim.segment, super::Segment::Free { .. });

@@ -154,6 +154,7 @@ impl Simulation {
                     a[j] = segment.jet(&p, &sample).d[1];
                 }
             }
+            #[cfg(feature = "power-law")]
             Segment::Integrated(_) => unreachable!("refused by flow_unsupported"),
         }
         DVector::from_iterator(2 * n, st.qd.iter().chain(a.iter()).copied())

@@ -25,7 +25,9 @@ mod codec;
 mod coupled;
 mod events;
 mod flow;
+#[cfg(feature = "power-law")]
 mod integrated;
+#[cfg(feature = "power-law")]
 pub mod nonlinear;
 mod phases;
 mod record;
@@ -209,11 +211,11 @@ impl Simulation {
         };
         sim.rebuild_segment()?;
         // An integrated phase rebuilds its steps from the anchor.
-        let reach = sim.state.scan.max(sim.state.time);
-        sim.replay_to(reach)?;
+        #[cfg(feature = "power-law")]
+        sim.replay_to(sim.state.scan.max(sim.state.time))?;
         let time = sim.state.time;
-        let integrated = matches!(sim.segment, Segment::Integrated(_));
-        if integrated && sim.state.scan < time {
+        #[cfg(feature = "power-law")]
+        if sim.segment.is_integrated() && sim.state.scan < time {
             // Stopped just before a switch, in the switch's own state: the
             // search finds it again from the saved position.
             let from = sim.state.scan;

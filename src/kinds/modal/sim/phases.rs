@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use super::coupled::CoupledPhase;
+#[cfg(feature = "power-law")]
 use super::integrated::IntegratedSegment;
 use super::{SimError, Simulation};
 use crate::contact::{Contact, PhaseTerm, Watch};
@@ -34,7 +35,20 @@ pub(super) enum Segment {
     },
     Coupled { phase: Arc<CoupledPhase>, segment: CoupledSegment },
     /// A nonlinear stop engaged: integrated.
+    #[cfg(feature = "power-law")]
     Integrated(Box<IntegratedSegment>),
+}
+
+impl Segment {
+    /// Whether this is an integrated phase (never in a build without the
+    /// integrated laws).
+    pub(super) fn is_integrated(&self) -> bool {
+        #[cfg(feature = "power-law")]
+        if let Segment::Integrated(_) = self {
+            return true;
+        }
+        false
+    }
 }
 
 impl Simulation {
@@ -61,8 +75,8 @@ impl Simulation {
             // on the contact modes: non-proportional, so a coupled phase.
             return self.rebuild_transfer_segment();
         }
-        let nonlinear = self.model.stops.iter().zip(&self.state.stops).any(|(m, s)| m.law.term(s.contact) == PhaseTerm::Nonlinear);
-        if nonlinear {
+        #[cfg(feature = "power-law")]
+        if self.model.stops.iter().zip(&self.state.stops).any(|(m, s)| m.law.term(s.contact) == PhaseTerm::Nonlinear) {
             let segment = Segment::Integrated(Box::new(self.integrated_segment()?));
             self.enter(segment);
             return Ok(());
@@ -154,6 +168,7 @@ impl Simulation {
         match &self.segment {
             Segment::Free { segment, .. } => segment.state_at(&self.dynamics, t, out),
             Segment::Coupled { phase, segment } => segment.state_at(&phase.system, t, out),
+            #[cfg(feature = "power-law")]
             Segment::Integrated(seg) => seg.state_at(t, out),
         }
     }

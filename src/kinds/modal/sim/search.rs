@@ -3,6 +3,7 @@
 //! events are handled and the search goes on from the new anchor.
 
 use super::Channel;
+#[cfg(feature = "power-law")]
 use super::integrated::IntegratedSwitch;
 use crate::contact::{Contact, Switch};
 use crate::kind::Reached;
@@ -105,6 +106,7 @@ impl Simulation {
                     });
                 }
             }
+            #[cfg(feature = "power-law")]
             Segment::Integrated(_) => unreachable!("integrated phases search on their own steps"),
             Segment::Coupled { phase, segment } => {
                 let (system, events) = (&phase.system, &phase.events);
@@ -225,6 +227,7 @@ impl Simulation {
         self.state.time = l;
         // The state a restore recomputes (a full-order step), not the
         // collocation polynomial's.
+        #[cfg(feature = "power-law")]
         if let Segment::Integrated(seg) = &mut self.segment {
             seg.settle_at(l);
         }
@@ -248,7 +251,8 @@ impl Simulation {
         // The work the cap counts, kept in the stats as it grows.
         let base = self.stats.work;
         loop {
-            if matches!(self.segment, Segment::Integrated(_)) {
+            #[cfg(feature = "power-law")]
+            if self.segment.is_integrated() {
                 let searched = self.integrated_search(t_end, &mut probes);
                 self.stats.work = base + probes + nodes as u64;
                 let Some(found) = searched.inspect_err(|_| self.stop_at(self.state.scan.min(t_end)))? else { break };
@@ -277,7 +281,7 @@ impl Simulation {
                 }
                 self.state.probed = te;
                 self.handle_events(te, &mut at, &at_zero)?;
-                if self.state.anchor_time == anchor && matches!(self.segment, Segment::Integrated(_)) {
+                if self.state.anchor_time == anchor && self.segment.is_integrated() {
                     // Nothing switched: search on past the zero.
                     self.state.scan = self.state.scan.max(te);
                 }
@@ -359,6 +363,7 @@ impl Simulation {
         }
         self.account(t_end);
         self.state.time = t_end;
+        #[cfg(feature = "power-law")]
         if let Segment::Integrated(seg) = &mut self.segment {
             seg.settle_at(t_end);
         }
@@ -377,7 +382,8 @@ impl Simulation {
     pub(super) fn certifies_up_to_scan(&self, max_probes: u64) -> bool {
         let target = self.state.scan;
         let mut check = Simulation { record_events: false, scratch: None, ..self.clone() };
-        if matches!(check.segment, Segment::Integrated(_)) {
+        #[cfg(feature = "power-law")]
+        if check.segment.is_integrated() {
             // Replay the phase and search it from the current time.
             if check.rebuild_segment().is_err() {
                 return false;

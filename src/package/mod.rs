@@ -1,7 +1,10 @@
 //! The .fmu archive of either standard: modelDescription.xml, the binary
-//! (one binary serves both: it exports fmi2* and fmi3*) under the
-//! standard's platform folder, the scene under resources/ and an HTML page
+//! under the standard's platform folder (the smallest prebuilt variant
+//! carrying the scene's kind and laws and only that standard's entry
+//! points: [`variants`]), the scene under resources/ and an HTML page
 //! under documentation/.
+
+pub mod variants;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -112,6 +115,9 @@ result = simulate_fmu('{name}.fmu', stop_time={stop}, output_interval={step},
                       output=[{outputs}]{options})
 print(result[-1])
 </pre>
+<h2>What the binary carries</h2>
+<table>
+{contents}</table>
 <h2>Variables</h2>
 <table><tr><th>name</th><th>value reference</th><th>kind</th><th>type</th><th>unit</th><th>start</th><th>description</th></tr>
 {rows}</table>
@@ -133,6 +139,11 @@ print(result[-1])
         step = e.step,
         outputs = outputs.join(", "),
         scene_json = escape(&scene.canonical_json()),
+        contents = match variants::covering(scene) {
+            Ok(variant) => variant.contents(version).iter().map(|(part, names)| format!("<tr><th>{part}</th><td>{}</td></tr>\n", escape(&names.join(", ")))).collect::<String>(),
+            // A kind of another crate's (its own binary): the kind and the standard.
+            Err(_) => format!("<tr><th>kinds</th><td>{}</td></tr>\n<tr><th>FMI standard</th><td>{}</td></tr>\n", escape(scene.kind().name()), version.number()),
+        },
     )
 }
 
