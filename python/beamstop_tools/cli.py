@@ -30,6 +30,7 @@ REPORTS = {
     "rigid_limit": "beamstop_tools.report.rigid_limit",
     "scaling": "beamstop_tools.report.scaling",
     "s3_cold": "beamstop_tools.report.s3_cold",
+    "binaries": "beamstop_tools.report.binaries",
     "sweeps": "beamstop_tools.sweep.figures",
     "coupling": "beamstop_tools.coupling.pd_slew",
 }

@@ -31,6 +31,10 @@ from fmpy.fmi2 import (
 # ---------------------------------------------------------------- paths
 
 ROOT = Path(__file__).resolve().parents[2]
+# The heavier checks at full length (every FMU under valgrind, the fuzzers'
+# longer runs): scripts/test --full sets it; the test command runs them
+# shortened (docs/verification.md).
+FULL = os.environ.get("BEAMSTOP_FULL_TESTS") == "1"
 FMU_DIR = ROOT / "target" / "fmu"
 FMU_PATH = FMU_DIR / "PinnedBeamStop.fmu"
 SO_PATH = ROOT / "target" / "release" / "libbeamstop_fmu.so"

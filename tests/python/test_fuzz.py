@@ -3,8 +3,9 @@ through the fmi2 functions (target/fmu/*.fmu) and tests/python/fuzz_fmi3.py
 through the fmi3 functions (target/fmu3/*.fmu; event mode, early return and
 the intermediate-update callback chosen at random per instance): random
 call sequences and corrupted serialized states, each run in a subprocess so
-that a crash or a hang is a failure, not a dead test session. The long runs
-are commands of their own:
+that a crash or a hang is a failure, not a dead test session. The test
+command runs 600 (FMI 2.0) and 400 (FMI 3.0) calls per FMU, scripts/test
+--full 1500 and 1000. The long runs are commands of their own:
 
     python tests/python/fuzz_fmi.py --fmu target/fmu/PinnedBeamStop.fmu --seed 7 --calls 1000000
     python tests/python/fuzz_fmi3.py --fmu target/fmu3/PinnedBeamStop.fmu --seed 7 --calls 1000000
@@ -17,16 +18,16 @@ from pathlib import Path
 
 import pytest
 
-from conftest import FMU_DIR, ROOT, python_env
+from conftest import FMU_DIR, FULL, ROOT, python_env
 
 HERE = Path(__file__).resolve().parent
 FMUS = sorted(FMU_DIR.glob("*.fmu"))
 FMU3_DIR = ROOT / "target" / "fmu3"
 FMUS3 = sorted(FMU3_DIR.glob("*.fmu"))
 SEEDS = (11, 12)
-CALLS = 1500
+CALLS = 1500 if FULL else 600
 # FMI 3.0 sequences are dearer per call (early returns, event-mode rounds).
-CALLS3 = 1000
+CALLS3 = 1000 if FULL else 400
 
 
 def fuzz(script: str, fmu: Path, seed: int, calls: int = CALLS) -> dict:
@@ -46,7 +47,7 @@ def fuzz(script: str, fmu: Path, seed: int, calls: int = CALLS) -> dict:
 @pytest.mark.parametrize("fmu,seed", [(f, SEEDS[(k + 1) % 2]) for k, f in enumerate(FMUS)], ids=[f.stem for f in FMUS])
 def test_random_call_sequences_keep_every_promise(fmu, seed):
     summary = fuzz("fuzz_fmi.py", fmu, seed)
-    assert summary["calls"] >= CALLS and summary["states"] > 10
+    assert summary["calls"] >= CALLS and summary["states"] > CALLS // 150
     assert summary["n_broken"] == 0, "\n".join(summary["broken"])
 
 
@@ -55,7 +56,7 @@ def test_random_fmi3_call_sequences_keep_every_promise(fmu, seed):
     summary = fuzz("fuzz_fmi3.py", fmu, seed, CALLS3)
     assert summary["n_broken"] == 0, "\n".join(summary["broken"] + ["the calls before the first:"]
                                                + summary["first_trace"])
-    assert summary["calls"] >= CALLS3 and summary["states"] > 5
+    assert summary["calls"] >= CALLS3 and summary["states"] > CALLS3 // 200
 
 
 def test_every_fmu_is_fuzzed_in_both_versions():
