@@ -3,7 +3,7 @@
 //! and `beamstop_fmi3.h` from src/fmi3/api.rs and src/fmi3/absent.rs
 //! (cbindgen-fmi3.toml).
 //! The committed copies `include/beamstop_fmi2.h` and
-//! `include/beamstop_fmi3.h` are checked against them by `tests/c_header.rs`
+//! `include/beamstop_fmi3.h` are checked against them by `tests/integration/c_header.rs`
 //! (which rewrites them when run with `BEAMSTOP_BLESS=1`); a build never
 //! writes outside `OUT_DIR`.
 

@@ -4,7 +4,7 @@ state is taken (fmi2GetFMUstate) and set into a second instance, and
 serialized (fmi2SerializeFMUstate) and deserialized into a third; the three
 then take the same step and every output must have the same bits. Three
 step sizes per FMU, with a tunable parameter or an input changed mid-run
-where the FMU has one. (tests/restores.rs checks the same on the engine's
+where the FMU has one. (tests/integration/restores.rs checks the same on the engine's
 own encoding, with longer runs through every phase each scene has.)"""
 
 import zipfile

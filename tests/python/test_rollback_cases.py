@@ -3,7 +3,7 @@
 taken to an instance without event mode, start times the clock cannot
 resolve, and early returns only at the events the log reports. The
 engine-level cases (tolerances, departing flags, pending switches,
-corrupted times) are tests/rollback.rs; freeing an instance's states is
+corrupted times) are tests/integration/rollback.rs; freeing an instance's states is
 checked under valgrind (tests/c/drive_fmu*.c)."""
 
 from __future__ import annotations

@@ -6,7 +6,7 @@
 //! The tip-spring modes themselves are checked against a Rayleigh-Ritz
 //! computation in `src/structure/tip_spring.rs`.
 
-mod common;
+use crate::common;
 
 use beamstop::codec::{Reader, Writer};
 use beamstop::kinds::modal::scene::{ContactMethod, StopLaw, StructureSpec, TransferDamping};

@@ -3,9 +3,9 @@
 //! free beam, a compliant stop penetrated without force while its law
 //! pushes (or pressed while it pulls), a rotating hub state that puts the
 //! tip through the surface. Each forgery changes one thing of a true state,
-//! which itself restores (tests/restores.rs: bit for bit).
+//! which itself restores (tests/integration/restores.rs: bit for bit).
 
-mod common;
+use crate::common;
 
 use beamstop::codec::{Reader, Writer};
 use beamstop::component::Component;

@@ -12,7 +12,7 @@ fn check(generated: &str, committed_path: &str, name: &str) {
     let committed = std::fs::read_to_string(committed_path).unwrap_or_default();
     assert!(
         committed == generated,
-        "include/{name} is out of date: rerun `BEAMSTOP_BLESS=1 cargo test --release --test c_header`"
+        "include/{name} is out of date: rerun `BEAMSTOP_BLESS=1 cargo test --release --test integration c_header::`"
     );
 }
 

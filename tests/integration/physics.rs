@@ -4,7 +4,7 @@
 
 use std::f64::consts::{PI, SQRT_2};
 
-mod common;
+use crate::common;
 
 use beamstop::kinds::modal::interface::ParamKey;
 use beamstop::SimError;

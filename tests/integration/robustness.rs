@@ -4,7 +4,7 @@
 //! rest under no load stays exactly at rest) or checks a promise (a bounded
 //! number of search points, a refused corrupted state).
 
-mod common;
+use crate::common;
 
 use beamstop::kinds::modal::interface::ParamKey;
 use beamstop::contact::Contact;

@@ -11,7 +11,7 @@ use beamstop::contact::{Contact, Law};
 use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};
 use nalgebra::DVector;
 
-mod common;
+use crate::common;
 use common::run_states as run;
 
 /// A pinned-pinned beam in scaled units (3 modes) under a distributed

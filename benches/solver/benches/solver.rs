@@ -1,4 +1,4 @@
-//! Speed, measured with criterion (`cargo bench`):
+//! Speed, measured with criterion (`cargo bench -p beamstop_bench`):
 //! - VSM12's Figure 10 regime (F = 72, omega = 0.7 pi^2, d = 1.2, R = 0.7,
 //!   zeta = 0.05, eps = 1e-3) over 60 forcing periods, natively;
 //! - the Figure 4 scene (chatter and sticking) over 20 time units;
@@ -14,7 +14,7 @@ use beamstop::kinds::modal::{model::Model, scene::Scene, sim::Simulation};
 use criterion::{criterion_group, criterion_main, Criterion};
 
 fn pinned() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).unwrap();
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/pinned_beam.json")).unwrap();
     Scene::from_json(&text).unwrap()
 }
 

@@ -5,7 +5,7 @@
 
 use std::f64::consts::PI;
 
-mod common;
+use crate::common;
 
 use beamstop::kinds::modal::interface::ParamKey;
 use beamstop::kinds::modal::{sim::EventKind, model::Model, scene::Scene, sim::Simulation};

@@ -5,7 +5,7 @@
 //! accurate: 1e-7 of the state's largest coordinate where their error
 //! falls as h^2 (the free beam, the spring stop: 5e-10 there), 1e-5 where
 //! it grows as 1/h, the rounding of some thirty event times (the forced
-//! scenes: 5e-9 and 4e-8 there). `cargo test --release --test flow --
+//! scenes: 5e-9 and 4e-8 there). `cargo test --release --test integration flow:: --
 //! --nocapture` prints each.
 //! Every event kind of the closed-form laws away from threshold
 //! decisions: restitution impacts, a chatter sequence ending in a stick
@@ -13,7 +13,7 @@
 //! release, a spring-dashpot stop's onset and separation with the dashpot's
 //! jump in the vector field.
 
-mod common;
+use crate::common;
 
 use beamstop::kinds::modal::interface::ParamKey;
 use beamstop::kinds::modal::sim::state_vector;
