@@ -54,7 +54,7 @@ pub fn kind_of(scene: &Json) -> Result<&'static dyn Kind, String> {
         (None, _) => {
             let names: Vec<&str> = kinds().map(|k| k.name()).collect();
             let have = if names.is_empty() { "none".to_string() } else { names.join(", ") };
-            if let Some((kind, key, _)) = crate::kinds::KINDS.iter().find(|(_, key, built)| !built && scene.get(key).is_some()) {
+            if let Some((kind, key)) = crate::kinds::KINDS.iter().find(|(kind, key)| !names.contains(kind) && scene.get(key).is_some()) {
                 return Err(format!(
                     "scene: a {kind} scene (it has the key '{key}'), and this binary was built without the {kind} kind (it has: {have}); package the scene with `beamstop package`, which picks a binary that has it"
                 ));

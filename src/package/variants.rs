@@ -138,7 +138,7 @@ mod tests {
         for (law, _) in crate::contact::LAWS {
             assert!(VARIANTS.iter().any(|v| v.laws.contains(&law)), "{law}");
         }
-        for (kind, _, _) in crate::kinds::KINDS {
+        for (kind, _) in crate::kinds::KINDS {
             assert!(VARIANTS.iter().any(|v| v.kinds.contains(&kind)), "{kind}");
         }
         let all: Vec<String> = crate::contact::LAWS.iter().map(|(l, _)| l.to_string()).collect();

@@ -129,6 +129,21 @@ def test_a_scene_the_binary_was_not_built_for_is_refused_naming_what_is_missing(
     assert 'stops[0].law.type = "hertz"' in message and "built without the hertz law (it has: restitution)" in message, message
 
 
+def test_a_scene_of_a_kind_the_binary_lacks_is_refused_naming_the_kind(tmp_path):
+    """The rotating beam's binary given the pinned beam's scene."""
+    from conftest import Instance
+
+    unzipped = tmp_path / "PinnedBeamStop"
+    with zipfile.ZipFile(FMU_DIRS["fmi2"] / "PinnedBeamStop.fmu") as z:
+        z.extractall(unzipped)
+    (binary,) = (unzipped / "binaries").glob("*/*.so")
+    binary.write_bytes(binary_in(FMU_DIRS["fmi2"] / "RotatingBeamImpact.fmu"))
+    with pytest.raises(RuntimeError) as refused:
+        Instance(unzipped, library_path=str(binary))
+    message = str(refused.value)
+    assert "a modal scene (it has the key 'structure'), and this binary was built without the modal kind (it has: rotating)" in message, message
+
+
 def lean_and_full(fmu: Path, tmp: Path) -> Path:
     """A copy of `fmu` with the full binary in place of its variant."""
     full = tmp / fmu.name
