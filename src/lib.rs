@@ -23,7 +23,9 @@
         feature = "spring-dashpot",
         feature = "power-law",
         feature = "fmi2",
-        feature = "fmi3"
+        feature = "fmi3",
+        feature = "register",
+        feature = "tools"
     )),
     allow(dead_code, unused_imports, unused_variables, unused_mut, unreachable_code, unreachable_patterns)
 )]
@@ -43,7 +45,9 @@ pub mod fmi2;
 pub mod fmi3;
 pub mod kind;
 pub mod kinds;
+#[cfg(feature = "tools")]
 pub mod orbits;
+#[cfg(feature = "tools")]
 pub mod package;
 pub mod solve;
 pub mod structure;

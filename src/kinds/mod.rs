@@ -4,12 +4,14 @@
 //! default feature `beam` off, a crate that builds an FMU of its own kind
 //! links the library without them (its FMU then carries only its kind).
 
+#[cfg(feature = "modal")]
 pub mod modal;
+#[cfg(feature = "rotating")]
 pub mod rotating;
 
-#[cfg(feature = "modal")]
+#[cfg(all(feature = "register", feature = "modal"))]
 inventory::submit! { crate::kind::Registration(&modal::ModalKind) }
-#[cfg(feature = "rotating")]
+#[cfg(all(feature = "register", feature = "rotating"))]
 inventory::submit! { crate::kind::Registration(&rotating::RotatingKind) }
 
 /// Every kind this library ships: its name and the top-level key its scene
