@@ -5,6 +5,8 @@
 //! and `valgrind --tool=callgrind` a steady workload:
 //!
 //! `cargo run --release --example profile_loop -- S3 4 300 [event_tolerance]`
+//! `cargo run --release --example profile_loop -- scenes/X.json N reps 0 [t_end]`
+//! (any modal scene file, its own settings, to t_end or its experiment's stop)
 //! `valgrind --tool=callgrind target/release/examples/profile_loop S3 4 20`
 //! (instructions per run: the difference between 20 and 0 runs, over 20).
 
@@ -20,12 +22,18 @@ fn main() {
     let modes: usize = args.get(2).map_or(4, |a| a.parse().expect("N, a number of modes"));
     let reps: usize = args.get(3).map_or(100, |a| a.parse().expect("reps, a number of runs"));
     let tolerance: f64 = args.get(4).map_or(0.0, |a| a.parse().expect("event_tolerance, a number"));
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json")).expect("the pinned-beam scene");
+    let path = if which.ends_with(".json") {
+        which.to_string()
+    } else {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pinned_beam.json").to_string()
+    };
+    let text = std::fs::read_to_string(&path).expect("a scene file");
     let mut scene = Scene::from_json(&text).expect("a valid scene");
     if let StructureSpec::Beam { modes: m, .. } = &mut scene.structure {
         *m = modes;
     }
     let t_end = match which {
+        file if file.ends_with(".json") => args.get(5).map_or(scene.experiment.stop, |a| a.parse().expect("t_end, a time")),
         "S2" => {
             ParamKey::LoadAmplitude(0).set(&mut scene, 72.0);
             ParamKey::LoadOmega(0).set(&mut scene, 0.7 * PI * PI);
@@ -40,11 +48,15 @@ fn main() {
     scene.solver.event_tolerance = tolerance;
     let model = Model::build(&scene).expect("model");
     let mut probes = 0;
-    for _ in 0..reps {
+    for rep in 0..reps {
+        let t0 = std::time::Instant::now();
+        let model = if std::env::var("FRESH").is_ok() { Model::build(&scene).expect("model") } else { model.clone() };
+        let t1 = std::time::Instant::now();
         let mut sim = Simulation::new(model.clone(), 0.0).expect("simulation");
         sim.set_event_recording(false);
         sim.advance_to(t_end).expect("run");
         probes += sim.stats().probes;
+        if rep < 3 { eprintln!("run {rep}: build {:?}, run {:?}", t1 - t0, t1.elapsed()); }
     }
     println!("{probes}");
 }

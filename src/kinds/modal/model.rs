@@ -10,7 +10,8 @@ use nalgebra::{DMatrix, DVector};
 use crate::contact::ModeTransfer;
 use crate::kinds::modal::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Contact, Geometry, Law, PhaseTerm};
-use crate::solve::lti::SystemCache;
+use crate::solve::lti::{CoupledSystem, LtiError, SystemCache};
+use std::sync::Arc;
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
 use crate::structure::{tip_spring, Beam, Chain, Point, Structure, Support, TipSpringCantilever};
 
@@ -281,7 +282,7 @@ impl Model {
         for (j, v) in scene.initial.qd.iter().enumerate() {
             initial.qd[j] = coordinate_scale * v;
         }
-        Ok(Model {
+        let model = Model {
             structure,
             coordinate_scale,
             oscillators,
@@ -299,7 +300,52 @@ impl Model {
             impulses: scene.outputs.impulse,
             transfer,
             phase_systems: SystemCache::default(),
-        })
+        };
+        model.prepare_compliant_phases()?;
+        Ok(model)
+    }
+
+    /// Decomposes, at build time, the phase of each linear compliant stop
+    /// pressed alone: a scene with a spring stop is made to reach it, and
+    /// its first contact then costs what every later one does. Sticking
+    /// phases (rarer, and at many modes costlier) are decomposed when first
+    /// reached.
+    fn prepare_compliant_phases(&self) -> Result<(), SceneError> {
+        let transfer_stop = self.transfer.as_ref().map(|tr| tr.stop);
+        for (i, stop) in self.stops.iter().enumerate() {
+            if Some(i) == transfer_stop || !matches!(stop.law.term(Contact::Pressed), PhaseTerm::Linear { .. }) {
+                continue;
+            }
+            let mut key = vec![Contact::Open; self.stops.len()];
+            key[i] = Contact::Pressed;
+            self.phase_system(&key).map_err(|e| SceneError(format!("stops[{i}] ('{}'): the contact phase: {e}", stop.name)))?;
+        }
+        Ok(())
+    }
+
+    /// The coupled system of a contact phase given each stop's contact
+    /// state: `K = diag(omega^2) + sum k w w^T`, `D = diag(2 zeta omega) +
+    /// sum c w w^T` over pressed compliant stops, constrained by the held
+    /// rigid ones; from the model's cache when decomposed before.
+    pub fn phase_system(&self, key: &[Contact]) -> Result<Arc<CoupledSystem>, LtiError> {
+        let n = self.n_modes();
+        let mut k = DMatrix::from_diagonal(&DVector::from_iterator(n, self.oscillators.iter().map(|o| o.omega * o.omega)));
+        let mut d = DMatrix::from_diagonal(&DVector::from_iterator(n, self.oscillators.iter().map(|o| 2.0 * o.a)));
+        let mut cols: Vec<DVector<f64>> = Vec::new();
+        for (stop, &contact) in self.stops.iter().zip(key) {
+            let w = &stop.geometry.w;
+            match stop.law.term(contact) {
+                PhaseTerm::None => {}
+                PhaseTerm::Constraint => cols.push(w.clone()),
+                PhaseTerm::Linear { stiffness: ks, damping: c } => {
+                    k.ger(ks, w, w, 1.0);
+                    d.ger(c, w, w, 1.0);
+                }
+                PhaseTerm::Nonlinear => unreachable!("nonlinear phases are integrated, not coupled"),
+            }
+        }
+        let w = if cols.is_empty() { DMatrix::zeros(n, 0) } else { DMatrix::from_columns(&cols) };
+        self.phase_systems.get_or_build(k, d, w)
     }
 
     /// Kinetic plus strain energy `sum (qd_j^2 + omega_j^2 q_j^2) / 2`.

@@ -88,24 +88,7 @@ impl Simulation {
         if let Some(s) = self.coupled_cache.get(key) {
             return Ok(s.clone());
         }
-        let n = self.model.n_modes();
-        let mut k = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(n, self.model.oscillators.iter().map(|o| o.omega * o.omega)));
-        let mut d = nalgebra::DMatrix::from_diagonal(&DVector::from_iterator(n, self.model.oscillators.iter().map(|o| 2.0 * o.a)));
-        let mut cols: Vec<DVector<f64>> = Vec::new();
-        for (stop, &contact) in self.model.stops.iter().zip(key) {
-            let w = &stop.geometry.w;
-            match stop.law.term(contact) {
-                PhaseTerm::None => {}
-                PhaseTerm::Constraint => cols.push(w.clone()),
-                PhaseTerm::Linear { stiffness: ks, damping: c } => {
-                    k.ger(ks, w, w, 1.0);
-                    d.ger(c, w, w, 1.0);
-                }
-                PhaseTerm::Nonlinear => unreachable!("nonlinear phases are integrated, not coupled"),
-            }
-        }
-        let w = if cols.is_empty() { nalgebra::DMatrix::zeros(n, 0) } else { nalgebra::DMatrix::from_columns(&cols) };
-        let sys = self.model.phase_systems.get_or_build(k, d, w)?;
+        let sys = self.model.phase_system(key)?;
         self.coupled_cache.insert(key.to_vec(), sys.clone());
         Ok(sys)
     }
