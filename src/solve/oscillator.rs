@@ -39,15 +39,16 @@ pub fn phi1(z: C64) -> C64 {
 /// `Re x, Re y <= 0` and any size (Opitz: `e[0,x,y] = (e[x,y] - phi1(x)) / y`
 /// is free of cancellation once `|y| >= 1`; below, the Taylor series).
 pub fn exp_divdiff2(x: C64, y: C64) -> C64 {
-    let (x, y) = if x.norm() > y.norm() { (y, x) } else { (x, y) };
-    if y.norm() >= 1.0 {
+    // Moduli compared squared: no hypot (the series runs at every contact).
+    let (x, y) = if x.norm_sqr() > y.norm_sqr() { (y, x) } else { (x, y) };
+    if y.norm_sqr() >= 1.0 {
         let d = y - x;
-        let exy = if d.norm() > 1.0 {
+        let exy = if d.norm_sqr() > 1.0 {
             (y.exp() - x.exp()) / d
         } else {
             // e^{m} sinh(d/2) / (d/2), m the midpoint.
             let h = d * 0.5;
-            let sinhc = if h.norm() < 1e-3 { C64::new(1.0, 0.0) + h * h / 6.0 + h * h * h * h / 120.0 } else { h.sinh() / h };
+            let sinhc = if h.norm_sqr() < 1e-6 { C64::new(1.0, 0.0) + h * h / 6.0 + h * h * h * h / 120.0 } else { h.sinh() / h };
             ((x + y) * 0.5).exp() * sinhc
         };
         return (exy - phi1(x)) / y;
@@ -60,7 +61,7 @@ pub fn exp_divdiff2(x: C64, y: C64) -> C64 {
     for n in 0..40 {
         let term = h / fact;
         sum += term;
-        if term.norm() < 1e-18 * sum.norm() {
+        if term.norm_sqr() < 1e-36 * sum.norm_sqr() {
             break;
         }
         xp *= x;

@@ -184,11 +184,11 @@ impl CoupledSegment {
         let s = t - self.t0;
         let n = sys.n_free();
         let zero = C64::new(0.0, 0.0);
+        let rot0: Vec<C64> = self.loads.harmonics.iter().map(|h| unit(h.omega * self.t0)).collect();
         let iz = DVector::from_fn(sys.eig.len(), |k, _| {
             let ls = sys.eig[k] * s;
             let mut v = self.z0[k] * phi1(ls) * s + self.loads.g_const[k] * exp_divdiff2(zero, ls) * (s * s);
-            for h in &self.loads.harmonics {
-                let rot0 = unit(h.omega * self.t0);
+            for (h, rot0) in self.loads.harmonics.iter().zip(&rot0) {
                 v += h.g[k] * rot0 * exp_divdiff2(ls, C64::new(0.0, h.omega * s)) * (s * s);
             }
             v
