@@ -47,16 +47,18 @@ def fastest_within(rows, solver, bound, err: str):
     return min(ok, key=lambda r: float(r["ms"]), default=None)
 
 
-def scipy_ladder(run, tols, reps: int, budget: float, skipped: list, stat=statistics.median):
+def scipy_ladder(run, tols, reps: int, budget: float, skipped: list, stat=statistics.median,
+                 methods=("Radau", "BDF")):
     """The scipy sweep of a report against the compiled peer (hertz,
-    rotating_peers): for Radau, then BDF, each rtol of `tols` run `reps`
+    rotating_peers): for each of `methods` (Radau, then BDF; a smoke run
+    passes Radau alone, the same code path), each rtol of `tols` run `reps`
     times by `run(method, rtol)` (once more only while a run takes at most
     LONG_RUN), a method stopped at a tolerance whose predicted time (the
     last time times the last growth factor) would exceed its half of
     `budget` seconds; skipped and failed (RuntimeError) settings are
     appended to `skipped`. Yields (method, rtol, the first run's result,
     the run times [s], 1e3 * stat(run times) [ms])."""
-    for method in ("Radau", "BDF"):
+    for method in methods:
         spent, times = 0.0, []
         for rtol in tols:
             if len(times) >= 2:

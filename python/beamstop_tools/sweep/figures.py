@@ -376,7 +376,8 @@ def fig9_orbits(client):
     """VSM12 Fig. 9 with its continued branches over the 500-point sweep, and the two runs' costs side by side."""
     from .. import orbits as orb
     points = 9 if QUICK else 500
-    params = [f"d=0:1.8:{points}"]
+    lo, hi = (1.0, 1.4) if QUICK else (0.0, 1.8)  # the smoke run: around the start, the same code paths
+    params = [f"d={lo:g}:{hi:g}:{points}"]
     info = read_fmu(FMU / "PinnedBeamStop.fmu")
     spec = spec_mod.build(info, params, VSM12_SETS + ["omega=0.7*pi**2"], 40 if QUICK else 100, 10 if QUICK else 100)
     t = time.perf_counter()
@@ -385,10 +386,10 @@ def fig9_orbits(client):
     sweep_wall = time.perf_counter() - t
     sweep_table, _ = read_points(WORK / "fig9_orbits_sweep" / "points.parquet")
     starts = [1.2]
-    orbits = orb.cover(ROOT / "scenes" / "pinned_beam.json", "d", 0.0, 1.8, sweep_table, start=starts,
+    orbits = orb.cover(ROOT / "scenes" / "pinned_beam.json", "d", lo, hi, sweep_table, start=starts,
                        sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
                        transient=int(spec.discard), max_branches=2 if QUICK else 200, out=WORK / "fig9_orbits")
-    single = orb.continue_orbits(ROOT / "scenes" / "pinned_beam.json", "d", 0.0, 1.8, start=[1.2],
+    single = orb.continue_orbits(ROOT / "scenes" / "pinned_beam.json", "d", lo, hi, start=[1.2],
                                  sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
                                  max_branches=1, out=WORK / "fig9_orbits_one")
     orb.plot(orbits, OUT / "fig9-orbits.png", sweep_table,
