@@ -1,6 +1,6 @@
 //! Error against run time for the Hertz stop's contact phases: beamstop
 //! (closed-form free flight, force-collocation contact phases) against the strongest
-//! compiled peer, DOP853 with dense output (`src/solve/dop853.rs`), integrated
+//! compiled peer, DOP853 with dense output (`numerics/src/solve/dop853.rs`), integrated
 //! phase by phase, on `scenes/hertz_stop.json` (20 modes, K = 1.088e10
 //! N/m^1.5, Lankarani-Nikravesh e = 0.8), 0.2 s from rest.
 //!

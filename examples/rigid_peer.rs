@@ -22,7 +22,7 @@
 //! - sticking: the free acceleration projected onto `w.q'' = 0`, reaction
 //!   `lambda = (w.(K q + D q') - w.f) / (w.w)` (VSM12 eq. 32), released
 //!   when lambda crosses zero upwards.
-//! Integrator: DOP853 (`src/solve/dop853.rs`, scipy's tableau and controller),
+//! Integrator: DOP853 (`numerics/src/solve/dop853.rs`, scipy's tableau and controller),
 //! compiled, no allocation per step. Events: after every accepted step the
 //! watched function (gap in free flight, `-lambda` while stuck) is sampled at
 //! the step's end (`samples=1`, as scipy's `solve_ivp` does) or also at 4

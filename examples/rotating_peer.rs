@@ -11,7 +11,7 @@
 //! default `solver.method`; switches on the dense output) at `solver.tolerance` 1e-4 ..
 //! 1e-12, one `advance_to(T_END)`, the events drained.
 //!
-//! **The peer**: DOP853 (`src/solve/dop853.rs`, order 8, 7th-order dense output)
+//! **The peer**: DOP853 (`numerics/src/solve/dop853.rs`, order 8, 7th-order dense output)
 //! with its own compiled event loop on the same equations `J(z) z'' = Q`
 //! (first-order model, `crate::structure::rotating`; DWZ eq. 15). The model
 //! is shared: the peer takes the assembled matrices `M`, `M - D`, `K`,

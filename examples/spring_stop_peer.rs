@@ -5,7 +5,7 @@
 //! `q_j'' + 2 a_j q_j' + omega_j^2 q_j = f_j(t) - side k p W_j(L)` with the
 //! penetration `p = side w . q - gap` while the tip is in contact (p > 0),
 //! else no stop force (no damping in the stop). The peer is DOP853 (order 8,
-//! 7th-order dense output; `src/solve/dop853.rs`, a port of Hairer's code via
+//! 7th-order dense output; `numerics/src/solve/dop853.rs`, a port of Hairer's code via
 //! scipy), integrated phase by phase (free / contact) so that each phase has
 //! a smooth right-hand side, the way scipy's `solve_ivp(events=...)` works
 //! but compiled:

@@ -49,8 +49,10 @@ pub mod kinds;
 pub mod orbits;
 #[cfg(feature = "tools")]
 pub mod package;
-pub mod solve;
-pub mod structure;
+// The numerics (solvers, propagators, event search) and the structures'
+// modes live in a crate of their own (numerics/): compiled once, not once
+// per FMU variant; their paths stay `beamstop::solve`, `beamstop::structure`.
+pub use beamstop_numerics::{solve, structure};
 pub mod units;
 pub mod variables;
 

@@ -4,7 +4,7 @@
 //! cantilever's own modes) as the number of modes grows, once all three
 //! damp the same continuum; RMTM needs far fewer modes (RMTM's finding).
 //! The tip-spring modes themselves are checked against a Rayleigh-Ritz
-//! computation in `src/structure/tip_spring.rs`.
+//! computation in `numerics/src/structure/tip_spring.rs`.
 
 use crate::common;
 

@@ -38,13 +38,21 @@ PARTS = {
     ("contact laws", "spring_dashpot"): "beamstop::contact::spring_dashpot::",
     ("contact laws", "hertz"): "beamstop::contact::hertz::",
     ("contact laws", "power_law"): "beamstop::contact::power_law::",
-    ("solvers", "collocation"): "beamstop::solve::collocation::",
-    ("solvers", "dop853"): "beamstop::solve::dop853::",
-    ("solvers", "radau"): "beamstop::solve::radau::",
-    ("solvers", "exponential"): "beamstop::solve::exponential::",
+    ("solvers", "collocation"): "beamstop_numerics::solve::collocation::",
+    ("solvers", "dop853"): "beamstop_numerics::solve::dop853::",
+    ("solvers", "radau"): "beamstop_numerics::solve::radau::",
+    ("solvers", "exponential"): "beamstop_numerics::solve::exponential::",
     ("FMI standard", "2.0"): "beamstop::fmi2::api::",
     ("FMI standard", "3.0"): "beamstop::fmi3::api::",
 }
+
+
+def test_every_part_is_named_as_the_full_binary_names_it():
+    """The symbol test below only proves an absence: each part's prefix must
+    name code in the full binary, or a renamed module would pass it."""
+    symbols = subprocess.run(["nm", "-C", "--defined-only", str(SO_PATH)], check=True, capture_output=True, text=True).stdout
+    missing = [f"{part} {name}: {prefix}" for (part, name), prefix in PARTS.items() if prefix not in symbols]
+    assert not missing, f"no symbol of the full binary {SO_PATH} starts so: {missing}"
 
 
 def contents(scene: Path, standard: str) -> dict[str, list[str]]:

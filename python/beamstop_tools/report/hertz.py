@@ -256,7 +256,7 @@ def summary(out: Path, rows, model: dict, stiffness, skipped, elapsed: float, re
     L.append("All solvers integrate the same modal equations (built by beamstop's `Model::build`). "
              "beamstop: closed-form free flight, force-collocation contact phases (`solver.integration_tolerance` "
              "= its rtol), `Simulation::advance_to` on the 2001-point grid. DOP853: compiled port "
-             "(`src/solve/dop853.rs`), phase by phase, events by sampling the dense output (4 interior "
+             "(`numerics/src/solve/dop853.rs`), phase by phase, events by sampling the dense output (4 interior "
              "points per step) and Brent; `dop853cap` caps the step at 3/omega_N. scipy: `solve_ivp` "
              "(Radau, BDF) phase by phase with terminal events and analytic Jacobians. Peer and scipy "
              "tolerances: atol = rtol * gap / |W_1(L)| on q, times Omega on q'.\n")
@@ -412,7 +412,7 @@ def findings(rows, stiffness, bs, model) -> str:
         f"{per_probe:.0f} us (median over the tolerances), a DOP853 step attempt {per_step:.1f} us. "
         + contact_cmp
         + "beamstop collocates each contact force at 4 Gauss nodes per step and propagates every mode exactly "
-        "under it (src/solve/collocation.rs), so a step is Newton on 4 nodal forces plus O(N) kernels, shared by "
+        "under it (numerics/src/solve/collocation.rs), so a step is Newton on 4 nodal forces plus O(N) kernels, shared by "
         "the steps of one size; its steps still follow the structure's top modes, because the force carries "
         "them: the contact point moves with every mode, and the force has their ripple. The contact is not "
         "stiff against the structure either: linearised at the deepest penetration of "

@@ -433,7 +433,7 @@ def summary(out: Path, rows, ref, checks, eq, native, skipped, elapsed, reps, cf
     L.append("Solvers. **beamstop**: `RotatingSimulation` (DOP853, its default `solver.method`, over the whole "
              "motion; switches located on the dense output, the state at a switch or an output by a step of its "
              "own), `solver.tolerance` = tol, one `advance_to(0.05)`. "
-             "**dop853 / dop853cap**: the same DOP853 (`src/solve/dop853.rs`) with the peer's own event loop "
+             "**dop853 / dop853cap**: the same DOP853 (`numerics/src/solve/dop853.rs`) with the peer's own event loop "
              "(`examples/rotating_peer.rs`: 4 interior dense-output samples per step, gap minima between samples, "
              "Brent on the 7th-order dense output, restart at each switch) on the library's assembled matrices "
              "(its right-hand side evaluated by block elimination of J, no allocation); `dop853` lets the error "
