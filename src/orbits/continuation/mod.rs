@@ -183,8 +183,35 @@ pub struct Diagram {
     pub evaluations: usize,
 }
 
+/// What a continuation reports as it goes: the command line prints its
+/// progress and writes each branch's rows as soon as the branch ends.
+pub trait Observer {
+    /// A branch starts from `first` (its orbit of `periods` forcing periods).
+    fn branch_started(&mut self, index: usize, periods: usize, first: &Point) {
+        let _ = (index, periods, first);
+    }
+    /// A point is accepted on branch `branch`.
+    fn point(&mut self, branch: usize, point: &Point) {
+        let _ = (branch, point);
+    }
+    /// A branch is finished: its points and its special points.
+    fn branch_ended(&mut self, branch: &Branch, special: &[Special]) {
+        let _ = (branch, special);
+    }
+}
+
+/// An observer that does nothing.
+pub struct Silent;
+
+impl Observer for Silent {}
+
 /// The orbits of a scene over one parameter's range (module doc).
 pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Diagram, String> {
+    continue_orbits_observed(scene, settings, &mut Silent)
+}
+
+/// [`continue_orbits`], telling `observer` what it does as it goes.
+pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, observer: &mut dyn Observer) -> Result<Diagram, String> {
     let param = parameter(scene, &settings.param)?;
     let forcing = match &settings.forcing {
         Some(name) => parameter(scene, name)?,
@@ -243,13 +270,16 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
             increasing[first.orbit.state.len()] = 1.0;
             let tangent = walker.tangent(&first, periods, &increasing)?;
+            observer.branch_started(index, periods, &first);
             let mut others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
-            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut doublings)?;
+            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut doublings, observer)?;
             others.push(&forward);
-            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut doublings)?;
+            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut doublings, observer)?;
             let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
             points.append(&mut forward);
-            diagram.branches.push(Branch { index, periods, points });
+            let branch = Branch { index, periods, points };
+            observer.branch_ended(&branch, &branch_special(&diagram.special, index));
+            diagram.branches.push(branch);
         }
     }
     let mut next = 0;
@@ -265,9 +295,12 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
         walker.weight_x = 1.0 / at.orbit.state.norm().max(1e-300);
         match walker.switch(&at, periods) {
             Ok((point, tangent)) => {
+                observer.branch_started(index, periods, &point);
                 let others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
-                let points = walker.walk(index, periods, point, tangent, true, &others, &mut diagram.special, &mut doublings)?;
-                diagram.branches.push(Branch { index, periods, points });
+                let points = walker.walk(index, periods, point, tangent, true, &others, &mut diagram.special, &mut doublings, observer)?;
+                let branch = Branch { index, periods, points };
+                observer.branch_ended(&branch, &branch_special(&diagram.special, index));
+                diagram.branches.push(branch);
             }
             Err(e) => diagram.notes.push(format!("the period doubling at {} = {}: no switch onto the doubled branch: {e}", settings.param, at.param)),
         }
@@ -277,6 +310,11 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
     }
     diagram.evaluations = walker.evaluations;
     Ok(diagram)
+}
+
+/// The special points of branch `index`.
+fn branch_special(special: &[Special], index: usize) -> Vec<Special> {
+    special.iter().filter(|s| s.branch == index).cloned().collect()
 }
 
 /// Whether `point` lies on the branch through `points`: the same period,

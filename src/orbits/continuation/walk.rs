@@ -5,7 +5,7 @@ use nalgebra::DVector;
 
 use super::corrector::{interpolate, Walker};
 use super::grazing::{grazing_ahead, Crossing};
-use super::{on_points, Point, Special, SpecialKind};
+use super::{on_points, Observer, Point, Special, SpecialKind};
 
 impl Walker {
     /// Follows a branch from `first` along `tangent` until it leaves the
@@ -22,6 +22,7 @@ impl Walker {
         others: &[&[Point]],
         special: &mut Vec<Special>,
         doublings: &mut Vec<Point>,
+        observer: &mut dyn Observer,
     ) -> Result<Vec<Point>, String> {
         let mut points = vec![first];
         let mut tangent = tangent;
@@ -119,6 +120,7 @@ impl Walker {
                 && points[..points.len() - 10].iter().any(|q| q.profile.impacts == point.profile.impacts && self.distance(q, &point) < 0.5 * ds);
             // A branch that runs onto one found before ends where it joins.
             let joins = points.len() > 2 && others.iter().any(|o| on_points(self, o, &point));
+            observer.point(branch, &point);
             points.push(point);
             if closed {
                 end("the branch closes on itself".into(), points.last().expect("a point"), special);
