@@ -60,6 +60,28 @@ impl Orbit {
     }
 }
 
+/// Whether the scene's runs have an exact flow with its Jacobian, which
+/// shooting needs (checked before anything is simulated); if not, which
+/// kind or which stop and law lacks it.
+pub fn check_flow(scene: &Component, t0: f64) -> Result<(), String> {
+    let inputs = vec![0.0; scene.inputs().len()];
+    let mut run = scene.start(t0, &inputs)?;
+    if run.flow().is_some() {
+        return Ok(());
+    }
+    let why = match scene.start_from_state(t0, &inputs, &[]) {
+        // The kind's reason, without its preamble (said here in full).
+        Err(e) => e.strip_prefix("a run from a given state is for shooting, which needs an exact flow: ").map(str::to_string).unwrap_or(e),
+        Ok(_) => "its runs have no exact flow".into(),
+    };
+    Err(format!(
+        "periodic orbits need the exact flow of the scene's runs and its Jacobian (the monodromy matrix Newton shoots with); \
+         the scene '{}' (kind '{}') has none: {why}",
+        scene.name(),
+        scene.kind().name()
+    ))
+}
+
 /// A run of `scene` started at `t0` in state `x` (`[q; q']`).
 pub fn start_from(scene: &Component, t0: f64, x: &DVector<f64>) -> Result<Box<dyn Run>, String> {
     scene.start_from_state(t0, &vec![0.0; scene.inputs().len()], x.as_slice())

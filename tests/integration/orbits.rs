@@ -350,3 +350,21 @@ fn newton_converges_quadratically_on_spring_stops_and_a_period_two_response() {
         }
     }
 }
+
+#[test]
+fn scenes_without_an_exact_flow_are_refused_before_any_transient() {
+    // Hertz contact is integrated, the rotating beam too: refused up front
+    // with the reason, not by a transient that runs into its work cap.
+    for (file, said) in [("hertz_stop", "stop 'stop' (law 'hertz') has a nonlinear contact phase"), ("rotating_beam", "(kind 'rotating') has none")] {
+        let text = std::fs::read_to_string(format!("{}/scenes/{file}.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
+        let scene = Component::from_json(&text).unwrap();
+        let first = scene.parameters()[0].name.clone();
+        let value = scene.get(0);
+        let mut settings = Continuation::new(&first, value, value + 1.0);
+        settings.forcing = Some(first.clone());
+        let clock = std::time::Instant::now();
+        let e = continue_orbits(&scene, &settings).unwrap_err();
+        assert!(e.contains("periodic orbits need the exact flow") && e.contains(said), "{file}: {e}");
+        assert!(clock.elapsed().as_secs_f64() < 0.5, "{file}: refused after {:?}", clock.elapsed());
+    }
+}

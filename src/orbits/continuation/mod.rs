@@ -212,6 +212,9 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
 
 /// [`continue_orbits`], telling `observer` what it does as it goes.
 pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, observer: &mut dyn Observer) -> Result<Diagram, String> {
+    // Before any transient is simulated: without an exact flow there is
+    // nothing to shoot with.
+    super::shooting::check_flow(scene, settings.t0)?;
     let param = parameter(scene, &settings.param)?;
     let forcing = match &settings.forcing {
         Some(name) => parameter(scene, name)?,
