@@ -82,9 +82,57 @@ pub fn check_flow(scene: &Component, t0: f64) -> Result<(), String> {
     ))
 }
 
-/// A run of `scene` started at `t0` in state `x` (`[q; q']`).
+/// How far beyond a rigid stop a state may lie and still count as on it,
+/// relative to the size of the contact point's displacement: the
+/// precision to which the map's fixed points are computed.
+pub const ON_STOP: f64 = 1e-8;
+
+/// A run of `scene` started at `t0` in state `x` (`[q; q']`). A state of
+/// the map, not a scene's initial state: one beyond a rigid stop by no
+/// more than [`ON_STOP`] is on it, and starts from its projection onto
+/// the stop ([`onto_stops`]).
 pub fn start_from(scene: &Component, t0: f64, x: &DVector<f64>) -> Result<Box<dyn Run>, String> {
-    scene.start_from_state(t0, &vec![0.0; scene.inputs().len()], x.as_slice())
+    let inputs = vec![0.0; scene.inputs().len()];
+    match scene.start_from_state(t0, &inputs, x.as_slice()) {
+        Ok(run) => Ok(run),
+        Err(e) => match onto_stops(scene, t0, x) {
+            Some(on) => scene.start_from_state(t0, &inputs, on.as_slice()),
+            None => Err(e),
+        },
+    }
+}
+
+/// `x` with its displacements moved onto each rigid stop it lies beyond
+/// by no more than [`ON_STOP`] (relative), its velocities kept; `None`
+/// if it lies beyond none, or beyond one by more.
+///
+/// The move is the smallest in the kinetic-energy norm (the coordinates
+/// are mass-normalised modal ones): `q -= (s . q - target) s / |s|^2`,
+/// `s` the stop's shape. The velocity is left to the stop's law: one
+/// approaching the stop gets its impact at `t0`, as the orbit arriving
+/// there does.
+pub fn onto_stops(scene: &Component, t0: f64, x: &DVector<f64>) -> Option<DVector<f64>> {
+    let mut run = scene.start(t0, &vec![0.0; scene.inputs().len()]).ok()?;
+    let surfaces = run.flow()?.surfaces();
+    let n = x.len() / 2;
+    let mut q = x.rows(0, n).into_owned();
+    let mut moved = false;
+    for s in surfaces.iter().filter(|s| s.rigid && s.shape.len() == n) {
+        let displacement = s.shape.dot(&q);
+        let beyond = s.side * (displacement - s.target);
+        let scale = s.target.abs() + s.shape.iter().zip(q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        if beyond <= 0.0 {
+            continue;
+        }
+        if beyond > ON_STOP * scale {
+            return None;
+        }
+        q -= &s.shape * ((displacement - s.target) / s.shape.norm_squared());
+        moved = true;
+    }
+    let mut on = x.clone();
+    on.rows_mut(0, n).copy_from(&q);
+    moved.then_some(on)
 }
 
 /// The state after `periods` periods from the scene's own initial state at

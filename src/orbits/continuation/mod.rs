@@ -36,6 +36,7 @@
 
 mod corrector;
 mod grazing;
+mod section;
 mod special;
 mod walk;
 

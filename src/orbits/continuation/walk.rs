@@ -51,7 +51,12 @@ impl Walker {
             let grazing_near = !tried_crossing
                 && points.len() >= 2
                 && grazing_ahead(&points[points.len() - 2], &last, self.distance(&points[points.len() - 2], &last)).is_some_and(|s| s < 2.0 * ds);
-            let stalled = (ds < self.ds_max * 1e-2 || grazing_near) && !tried_crossing;
+            // An impact about to pass through the section's phase: the
+            // state at t0 jumps to the other side of it.
+            let section_near = !tried_crossing
+                && points.len() >= 2
+                && self.section_ahead(&points[points.len() - 2], &last, self.distance(&points[points.len() - 2], &last)).is_some_and(|s| s < 2.0 * ds);
+            let stalled = (ds < self.ds_max * 1e-2 || grazing_near || section_near) && !tried_crossing;
             let (point, next_tangent, iterations) = match attempt {
                 Ok(found) if found.1.dot(&tangent) > 0.9 || ds <= ds_min => found,
                 Ok(_) | Err(_) if ds > ds_min && !stalled => {
@@ -61,6 +66,16 @@ impl Walker {
                 failed => {
                     let e = failed.err().unwrap_or_else(|| "the branch turns too fast".into());
                     tried_crossing = true;
+                    if section_near || self.on_section(&last).is_some_and(|o| o.gap <= 1e-6 * last.orbit.state.amax()) {
+                        if let Ok((beyond, next_tangent)) = self.cross_section(&last, &tangent, periods) {
+                            observer.point(branch, &beyond);
+                            points.push(beyond);
+                            tangent = next_tangent;
+                            ds = self.ds_max * 0.1;
+                            tried_crossing = false;
+                            continue;
+                        }
+                    }
                     // Newton fails at a grazing (the map's square root):
                     // locate it, then restart on the far side.
                     let previous = points.len().checked_sub(2).map(|i| points[i].clone());
