@@ -178,3 +178,29 @@ pub fn shoot(scene: &Component, t0: f64, period: f64, guess: &DVector<f64>, sett
     let shown: Vec<String> = residuals.iter().map(|r| format!("{r:.1e}")).collect();
     Err(format!("shooting: no convergence in {} Newton iterations (residuals {})", settings.max_iterations, shown.join(", ")))
 }
+
+/// The orbit over its minimal period. `orbit`, found over `periods`
+/// forcing periods of `forcing_period`, may repeat sooner (the guess's
+/// period was read off a slow transient): for each divisor `d` of
+/// `periods`, smallest first, whose state after `d` forcing periods is
+/// back at the start (to Newton's tolerance), the orbit shot over `d`
+/// periods from there, with that period's multipliers. Where the start
+/// returns only to 1e-6, Newton over `d` periods decides: the orbit it
+/// converges to must be the one given (within 1e-6 of its size).
+pub fn minimal_period(scene: &Component, orbit: Orbit, forcing_period: f64, settings: Shooting) -> Result<Orbit, String> {
+    let periods = (orbit.period / forcing_period).round() as usize;
+    let size = orbit.state.amax().max(f64::MIN_POSITIVE);
+    for d in (1..periods).filter(|d| periods % d == 0) {
+        let span = d as f64 * forcing_period;
+        let (end, _, _) = map(scene, orbit.t0, span, &orbit.state)?;
+        let returned = (&end - &orbit.state).amax() / size;
+        if returned <= 1e-6 {
+            if let Ok(shorter) = shoot(scene, orbit.t0, span, &orbit.state, settings) {
+                if returned <= settings.tolerance || (&shorter.state - &orbit.state).amax() <= 1e-6 * size {
+                    return Ok(shorter);
+                }
+            }
+        }
+    }
+    Ok(orbit)
+}

@@ -368,3 +368,42 @@ fn scenes_without_an_exact_flow_are_refused_before_any_transient() {
         assert!(clock.elapsed().as_secs_f64() < 0.5, "{file}: refused after {:?}", clock.elapsed());
     }
 }
+
+/// The three-mass chain of issue 44 (c = 0.05, stop on mass 3 at 0.5).
+fn chain3() -> Component {
+    let text = r#"{"name": "Chain3Stop", "structure": {"type": "chain", "masses": 3, "m": 1.0, "k": 1.0, "c": 0.05},
+        "loads": [{"type": "point_harmonic", "name": "A1", "mass": 1, "amplitude": 0.3, "omega": 0.5, "waveform": "cos"}],
+        "stops": [{"name": "stop", "mass": 3, "gap": 0.5, "side": "positive", "law": {"type": "restitution", "R": 0.8, "eps": 1e-6}}]}"#;
+    Component::from_json(text).unwrap()
+}
+
+#[test]
+fn an_orbit_is_reported_over_its_minimal_period() {
+    // At omega = 0.8 the transient's sections repeat best after 7 forcing
+    // periods, but the orbit found there is of period 1.
+    let mut settings = Continuation::new("A1.omega", 0.3, 2.0);
+    settings.starts = vec![0.8];
+    settings.points = 20;
+    settings.max_branches = 1;
+    let scene = chain3();
+    let d = continue_orbits(&scene, &settings).unwrap();
+    let b = &d.branches[0];
+    assert_eq!(b.periods, 1);
+    let at = b.points.iter().find(|p| p.param == 0.8).expect("the start is a point");
+    let period = 2.0 * PI / 0.8;
+    assert!((at.orbit.period - period).abs() < 1e-12 * period, "{}", at.orbit.period);
+    // Its multipliers are those of one period (Phi, not Phi^7).
+    let mut s = scene.clone();
+    let omega = s.parameters().iter().position(|p| p.name == "A1.omega").unwrap();
+    s.set(omega, 0.8);
+    let one = shoot(&s, 0.0, period, &at.orbit.state, Shooting::default()).unwrap();
+    assert_eq!(one.multipliers.len(), at.orbit.multipliers.len());
+    let mut a: Vec<f64> = one.multipliers.iter().map(|z| z.norm()).collect();
+    let mut b: Vec<f64> = at.orbit.multipliers.iter().map(|z| z.norm()).collect();
+    a.sort_by(f64::total_cmp);
+    b.sort_by(f64::total_cmp);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-9, "{a:?} against {b:?}");
+    }
+    assert!(b.last().unwrap() > &0.5, "one period's multipliers, not the seventh power's: {b:?}");
+}

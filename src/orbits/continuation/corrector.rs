@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 use nalgebra::{DMatrix, DVector};
 
 use super::super::profile::profile;
-use super::super::shooting::{map, shoot, start_from, Orbit, Shooting};
+use super::super::shooting::{map, minimal_period, shoot, start_from, Orbit, Shooting};
 use super::{Continuation, Point};
 use crate::component::Component;
 
@@ -81,6 +81,7 @@ impl Walker {
         let shooting = Shooting { tolerance: settings.tolerance, max_iterations: 40 };
         let orbit = shoot(&at_start, self.t0, periods as f64 * forcing_period, &guess, shooting)
             .map_err(|e| format!("the first orbit ({periods} forcing periods): {e}"))?;
+        let orbit = minimal_period(&at_start, orbit, forcing_period, shooting)?;
         self.point(start, orbit)
     }
 
