@@ -407,3 +407,21 @@ fn an_orbit_is_reported_over_its_minimal_period() {
         assert!((x - y).abs() < 1e-9, "{a:?} against {b:?}");
     }
 }
+
+#[test]
+fn steps_follow_the_orbits_size_to_the_grazing() {
+    // A clamped-clamped beam against a spring stop: its orbit grows eleven
+    // times from omega = 10 to the grazing at 20.83. Scaled by the first
+    // orbit's size the steps shrank to 8e-4 and the default run stopped at
+    // its 2,050-point limit at omega = 20.77.
+    let text = r#"{"name": "CCBeamSpring", "structure": {"type": "beam", "support": "clamped-clamped", "modes": 3}, "damping": {"zeta": 0.02},
+        "loads": [{"type": "point_harmonic", "name": "P", "x": 0.5, "amplitude": 2.0, "omega": 15.0, "waveform": "sin"}],
+        "stops": [{"name": "stop", "x": 0.3, "gap": 0.05, "side": "positive", "law": {"type": "spring_dashpot", "k": 500.0, "c": 0.0}}]}"#;
+    let scene = Component::from_json(text).unwrap();
+    let mut settings = Continuation::new("P.omega", 10.0, 35.0);
+    settings.max_branches = 1;
+    let d = continue_orbits(&scene, &settings).unwrap();
+    let grazing = d.special.iter().find(|s| s.kind == SpecialKind::Grazing).expect("a grazing");
+    assert!((grazing.point.param - 20.825943703).abs() < 1e-6, "{}: {}", grazing.point.param, grazing.note);
+    assert!(grazing.point.profile.closest.is_some_and(|c| c.gap.abs() < 1e-10), "{}", grazing.note);
+}

@@ -120,6 +120,14 @@ pub struct Point {
 }
 
 impl Point {
+    /// The orbit's size, the scale of its state in the continuation's
+    /// steps: the RMS of the state's norm over the period
+    /// ([`Profile::norm`]), or the state's norm where that is zero.
+    pub fn size(&self) -> f64 {
+        let size = if self.profile.norm > 0.0 { self.profile.norm } else { self.orbit.state.norm() };
+        size.max(1e-300)
+    }
+
     /// Forcing periods per orbit period.
     pub fn periods(&self) -> usize {
         (self.orbit.period / self.forcing_period).round() as usize
@@ -269,8 +277,8 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
             }
             let index = diagram.branches.len();
             let periods = first.periods();
-            // Each branch scales the state by its first orbit's size.
-            walker.weight_x = 1.0 / first.orbit.state.norm().max(1e-300);
+            // Each branch scales the state by its orbits' size, from its first.
+            walker.weight_x = 1.0 / first.size();
             let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
             increasing[first.orbit.state.len()] = 1.0;
             let tangent = walker.tangent(&first, periods, &increasing)?;
@@ -296,7 +304,7 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
             continue;
         }
         let index = diagram.branches.len();
-        walker.weight_x = 1.0 / at.orbit.state.norm().max(1e-300);
+        walker.weight_x = 1.0 / at.size();
         match walker.switch(&at, periods) {
             Ok((point, tangent)) => {
                 observer.branch_started(index, periods, &point);

@@ -24,6 +24,9 @@ impl Walker {
         doublings: &mut Vec<Point>,
         observer: &mut dyn Observer,
     ) -> Result<Vec<Point>, String> {
+        // The scale `tangent` is given in, restored at the end (the other
+        // direction of the branch starts in it too).
+        let weight_x = self.weight_x;
         let mut points = vec![first];
         let mut tangent = tangent;
         let mut ds = self.ds_max;
@@ -154,7 +157,7 @@ impl Walker {
                 end(format!("the steps stall below 1e-3 of the longest (largest multiplier {largest:.3e})"), at, special);
                 break;
             }
-            tangent = next_tangent;
+            tangent = self.rescaled(next_tangent, points.last().expect("a point"));
             tried_crossing &= ds < 0.1 * self.ds_max;
             ds = match iterations {
                 0..=4 => (ds * 1.5).min(self.ds_max),
@@ -162,6 +165,26 @@ impl Walker {
                 _ => ds * 0.7,
             };
         }
+        self.weight_x = weight_x;
         Ok(points)
+    }
+
+    /// The state's scale follows the orbit's size: where `at`'s orbit has
+    /// grown or shrunk by more than a factor 2 from the scale, the scale
+    /// becomes its size and `tangent` is carried over to it. (With the
+    /// first orbit's scale, a branch whose orbits grow tenfold takes
+    /// steps ten times shorter in the parameter.)
+    pub(super) fn rescaled(&mut self, tangent: DVector<f64>, at: &Point) -> DVector<f64> {
+        let size = at.size();
+        let ratio = size * self.weight_x;
+        if !(size > 0.0 && size.is_finite()) || (0.5..=2.0).contains(&ratio) {
+            return tangent;
+        }
+        let n = at.orbit.state.len();
+        self.weight_x = 1.0 / size;
+        let mut t = tangent;
+        let scaled = t.rows(0, n) / ratio;
+        t.rows_mut(0, n).copy_from(&scaled);
+        t.normalize()
     }
 }
