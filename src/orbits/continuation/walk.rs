@@ -61,7 +61,9 @@ impl Walker {
                 && self.section_ahead(&points[points.len() - 2], &last, self.distance(&points[points.len() - 2], &last)).is_some_and(|s| s < 2.0 * ds);
             let stalled = (ds < self.ds_max * 1e-2 || grazing_near || section_near) && !tried_crossing;
             let (point, next_tangent, iterations) = match attempt {
-                Ok(found) if found.1.dot(&tangent) > 0.9 || ds <= ds_min => found,
+                // A corrector that moved farther from the predictor than
+                // the step itself may have jumped to another branch.
+                Ok(found) if found.1.dot(&tangent) > 0.9 && (self.scaled(&found.0.orbit.state, found.0.param) - &u_pred).norm() <= ds || ds <= ds_min => found,
                 Ok(_) | Err(_) if ds > ds_min && !stalled => {
                     ds *= 0.5;
                     continue;
