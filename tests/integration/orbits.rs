@@ -425,3 +425,65 @@ fn steps_follow_the_orbits_size_to_the_grazing() {
     assert!((grazing.point.param - 20.825943703).abs() < 1e-6, "{}: {}", grazing.point.param, grazing.note);
     assert!(grazing.point.profile.closest.is_some_and(|c| c.gap.abs() < 1e-10), "{}", grazing.note);
 }
+
+/// The impact oscillator of issue 44: c = 0.2, omega = 0.8, gap 0.5, R = 0.8.
+fn oscillator_44() -> Component {
+    let text = r#"{"name": "ImpactOscillator", "structure": {"type": "chain", "masses": 1, "m": 1.0, "k": 1.0, "c": 0.2},
+        "loads": [{"type": "point_harmonic", "name": "A1", "mass": 1, "amplitude": 0.0985, "omega": 0.8, "waveform": "cos"}],
+        "stops": [{"name": "stop", "mass": 1, "gap": 0.5, "side": "positive", "law": {"type": "restitution", "R": 0.8, "eps": 1e-9}}],
+        "experiment": {"start": 0, "stop": 200, "step": 0.05}}"#;
+    Component::from_json(text).unwrap()
+}
+
+#[test]
+fn a_map_state_on_a_stop_to_rounding_is_on_it() {
+    let scene = oscillator(0.15);
+    // Beyond the stop (d = 1) by 2.4e-10, approaching: started on the stop,
+    // where its impact comes at once.
+    let x = DVector::from_vec(vec![1.0 + 2.4e-10, 0.3]);
+    let mut run = start_from(&scene, 0.0, &x).unwrap();
+    let c = run.flow().unwrap().clearances()[0];
+    assert!(c.gap == 0.0 && c.displacement == 1.0, "{c:?}");
+    // The stop's law acts at t0: the impact, R = 0.8.
+    assert!((run.flow().unwrap().state()[1] + 0.8 * 0.3).abs() < 1e-15, "{}", run.flow().unwrap().state());
+    run.advance_to(0.1).unwrap();
+    let after = run.flow().unwrap().state();
+    assert!(after[0] < 1.0 && after[1] < 0.0, "bounced off the stop: {after}");
+    // Deeper than 1e-8 of the stop's scale: refused, as an initial state is.
+    let deep = start_from(&scene, 0.0, &DVector::from_vec(vec![1.0 + 1e-7, 0.3])).unwrap_err();
+    assert!(deep.contains("penetrates"), "{deep}");
+}
+
+fn diagram_44(from: f64) -> beamstop::orbits::Diagram {
+    let settings = Continuation::new("A1.amplitude", from, 0.3939543120718441);
+    continue_orbits(&oscillator_44(), &settings).unwrap()
+}
+
+#[test]
+fn rounding_does_not_end_branches_or_move_special_points() {
+    // FROM and one ulp less: before, the period-1 branch ended at A =
+    // 0.3545 on an iterate 2.4e-10 inside the stop (its impact passes
+    // through the section there), and the period-2 branch had 30 points
+    // or 199.
+    let (a, b) = (diagram_44(0.09848857801796104), diagram_44(0.09848857801796103));
+    for d in [&a, &b] {
+        assert!(d.special.iter().all(|s| !s.note.contains("penetrates")), "{:?}", d.special.iter().map(|s| &s.note).collect::<Vec<_>>());
+        let ends: Vec<f64> = d.special.iter().filter(|s| s.branch == 0 && s.kind == SpecialKind::End).map(|s| s.point.param).collect();
+        assert!(ends.contains(&0.3939543120718441), "branch 0 ends at {ends:?}");
+    }
+    assert_eq!(a.branches.len(), b.branches.len());
+    let key = |d: &beamstop::orbits::Diagram| {
+        let mut v: Vec<(usize, &'static str, f64)> = d.special.iter().map(|s| (s.branch, s.kind.code(), s.point.param)).collect();
+        v.sort_by(|x, y| (x.0, x.1).cmp(&(y.0, y.1)).then(x.2.total_cmp(&y.2)));
+        v
+    };
+    let (ka, kb) = (key(&a), key(&b));
+    assert_eq!(ka.len(), kb.len(), "{ka:?}\n{kb:?}");
+    for (x, y) in ka.iter().zip(&kb) {
+        assert!(x.0 == y.0 && x.1 == y.1 && (x.2 - y.2).abs() <= 1e-9 * x.2.abs(), "{x:?} against {y:?}\n{ka:?}\n{kb:?}");
+    }
+    // The period-2 branch ends where it meets the period-1 orbit's grazing.
+    let grazing = ka.iter().find(|s| s.0 == 0 && s.1 == "GR").unwrap().2;
+    let end = ka.iter().filter(|s| s.0 == 1 && s.1 == "EP").map(|s| s.2).fold(f64::INFINITY, f64::min);
+    assert!((end - grazing).abs() <= 1e-9 * grazing, "{end} against {grazing}");
+}
