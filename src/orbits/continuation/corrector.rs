@@ -36,6 +36,8 @@ pub(super) struct Walker {
     pub(super) max_points: usize,
     pub(super) evaluations: usize,
     pub(super) scenes: RefCell<Vec<(f64, Component)>>,
+    /// The stops' surfaces at the last few parameter values.
+    pub(super) surfaces: RefCell<Vec<(f64, Vec<crate::kind::Surface>)>>,
     /// `(parameter, scale, power)`: see [`Continuation::tied`].
     pub(super) tied: Vec<(usize, f64, f64)>,
     /// Orbits found beyond a grazing that does not continue into them:

@@ -264,7 +264,9 @@ impl Walker {
         let width = p1.abs().max(self.range.1 - self.range.0);
         let mut bound = f64::NAN;
         for _ in 0..40 {
-            if f1 <= 1e-12 * scale || (p1 - p0).abs() <= 1e-15 * width || (bound - p1).abs() <= 1e-15 * width {
+            // The gap closed, or the parameter resolved (the gap's rounding
+            // is about 1e-16 of the displacement).
+            if f1 <= 1e-12 * scale || (p1 - p0).abs() <= 1e-13 * width || (bound - p1).abs() <= 1e-13 * width {
                 break;
             }
             let mut p = if f1 != f0 { p1 - f1 * (p1 - p0) / (f1 - f0) } else { f64::NAN };

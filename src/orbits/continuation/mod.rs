@@ -254,6 +254,7 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
         max_points: 10 * settings.points + 50,
         evaluations: 0,
         scenes: Default::default(),
+        surfaces: Default::default(),
         restarts: Vec::new(),
         tied: settings.tied.iter().map(|(name, scale, power)| parameter(scene, name).map(|i| (i, *scale, *power))).collect::<Result<_, _>>()?,
     };

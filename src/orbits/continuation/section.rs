@@ -8,6 +8,7 @@ use nalgebra::DVector;
 
 use super::super::shooting::start_from;
 use super::corrector::Walker;
+use crate::kind::Surface;
 use super::Point;
 
 /// The section state's distance from the nearest rigid stop and the
@@ -22,9 +23,7 @@ impl Walker {
     /// Where the state at `t0` of the orbit through `point` is relative to
     /// the nearest rigid stop.
     pub(super) fn on_section(&self, point: &Point) -> Option<OnSection> {
-        let scene = self.scene_at(point.param).ok()?;
-        let mut run = start_from(&scene, self.t0, &point.orbit.state).ok()?;
-        let surfaces = run.flow()?.surfaces();
+        let surfaces = self.surfaces_at(point.param)?;
         let n = point.orbit.state.len() / 2;
         let (q, qd) = (point.orbit.state.rows(0, n), point.orbit.state.rows(n, n));
         surfaces
@@ -32,6 +31,22 @@ impl Walker {
             .filter(|s| s.rigid && s.shape.len() == n)
             .map(|s| OnSection { gap: s.side * (s.target - s.shape.dot(&q)), approach: s.side * s.shape.dot(&qd) })
             .min_by(|a, b| a.gap.total_cmp(&b.gap))
+    }
+
+    /// The stops' surfaces at parameter value `p` (the last few kept).
+    fn surfaces_at(&self, p: f64) -> Option<Vec<Surface>> {
+        let mut cache = self.surfaces.borrow_mut();
+        if let Some((_, s)) = cache.iter().find(|(v, _)| v.to_bits() == p.to_bits()) {
+            return Some(s.clone());
+        }
+        let scene = self.scene_at(p).ok()?;
+        let mut run = scene.start(self.t0, &vec![0.0; scene.inputs().len()]).ok()?;
+        let surfaces = run.flow()?.surfaces();
+        if cache.len() >= 8 {
+            cache.remove(0);
+        }
+        cache.push((p, surfaces.clone()));
+        Some(surfaces)
     }
 
     /// The distance along the branch after `last` (`step` after
