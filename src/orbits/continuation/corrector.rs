@@ -92,13 +92,8 @@ impl Walker {
     pub(super) fn settle(&self, scene: &Component, forcing_period: f64, transient: usize, max_period: usize) -> Result<(DVector<f64>, usize), String> {
         let mut run = scene.start(self.t0, &vec![0.0; scene.inputs().len()])?;
         run.advance_to(self.t0 + transient as f64 * forcing_period).map_err(|e| e.to_string())?;
-        if run.flow().is_none() {
-            // The kind says why (an integrated or mode-transfer phase).
-            let inputs = vec![0.0; scene.inputs().len()];
-            return Err(scene.start_from_state(self.t0, &inputs, &[]).err().unwrap_or_else(|| "the scene's kind has no exact flow".into()));
-        }
-        let flow = run.flow().expect("checked");
-        let x = flow.state();
+        // A scene without an exact flow is refused before (shooting::check_flow).
+        let x = run.flow().ok_or("the scene's kind has no exact flow")?.state();
         let mut copy = run.clone();
         let mut best = (f64::INFINITY, 1);
         for m in 1..=max_period {
