@@ -6,8 +6,8 @@
 //! Its Jacobian is `[M - I, G_p]`: `M` the exact monodromy matrix, `G_p`
 //! by central differences in `p` (a parameter such as the gap rebuilds the
 //! model; a forcing frequency also changes the period). Steps are taken in
-//! scaled coordinates (the state by the size of its branch's first orbit,
-//! the parameter by the range's width): a tangent predictor, then Newton on `G = 0`
+//! scaled coordinates (the state by the size of its branch's largest
+//! orbit so far, the parameter by the range's width): a tangent predictor, then Newton on `G = 0`
 //! within the hyperplane normal to the tangent, so a branch goes round its
 //! folds. The map is continuous where the impact sequence changes
 //! (grazing, a chatter ending in a stick), so a branch continues across it.
@@ -278,7 +278,7 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
             }
             let index = diagram.branches.len();
             let periods = first.periods();
-            // Each branch scales the state by its orbits' size, from its first.
+            // Each branch scales the state by its largest orbit so far, from its first.
             walker.weight_x = 1.0 / first.size();
             let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
             increasing[first.orbit.state.len()] = 1.0;

@@ -258,15 +258,17 @@ impl Walker {
         }
     }
 
-    /// The state's scale follows the orbit's size: where `at`'s orbit has
-    /// grown or shrunk by more than a factor 2 from the scale, the scale
-    /// becomes its size and `tangent` is carried over to it. (With the
-    /// first orbit's scale, a branch whose orbits grow tenfold takes
-    /// steps ten times shorter in the parameter.)
+    /// The state's scale follows the branch's largest orbit so far, as a
+    /// diagram's axis does: where `at`'s orbit has grown past twice the
+    /// scale, the scale becomes its size and `tangent` is carried over to
+    /// it. (With the first orbit's scale, a branch whose orbits grow
+    /// tenfold takes steps ten times shorter in the parameter; a scale
+    /// that shrank with the orbits would resolve the small ones' relative
+    /// changes, which a diagram does not show, at the cost of many points.)
     pub(super) fn rescaled(&mut self, tangent: DVector<f64>, at: &Point) -> DVector<f64> {
         let size = at.size();
         let ratio = size * self.weight_x;
-        if !(size > 0.0 && size.is_finite()) || (0.5..=2.0).contains(&ratio) {
+        if !(size > 0.0 && size.is_finite()) || ratio <= 2.0 {
             return tangent;
         }
         let n = at.orbit.state.len();
