@@ -424,6 +424,8 @@ fn steps_follow_the_orbits_size_to_the_grazing() {
     let grazing = d.special.iter().find(|s| s.kind == SpecialKind::Grazing).expect("a grazing");
     assert!((grazing.point.param - 20.825943703).abs() < 1e-6, "{}: {}", grazing.point.param, grazing.note);
     assert!(grazing.point.profile.closest.is_some_and(|c| c.gap.abs() < 1e-10), "{}", grazing.note);
+    // And on, round its folds, to the end of the range.
+    assert!(d.special.iter().any(|s| s.kind == SpecialKind::End && s.point.param == 35.0), "{:?}", d.special.iter().map(|s| &s.note).collect::<Vec<_>>());
 }
 
 /// The impact oscillator of issue 44: c = 0.2, omega = 0.8, gap 0.5, R = 0.8.
