@@ -44,7 +44,7 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
     let (name, ends) = range.split_once('=').ok_or(format!("--param {range}: NAME=FROM:TO"))?;
     let (from, to) = ends.split_once(':').ok_or(format!("--param {range}: NAME=FROM:TO"))?;
     let values = |option| args.values(option);
-    let held = held_parameters(name, values("set"), values("tie"))?;
+    held_once(name, values("set"), values("tie"))?;
     let mut scene = load(&file)?;
     for set in values("set") {
         let (n, v) = set.split_once('=').ok_or(format!("--set {set}: NAME=VALUE"))?;
@@ -55,7 +55,6 @@ pub fn orbits(args: &[String], load: impl Fn(&std::path::Path) -> Result<Compone
         scene.set(index, number(v, &format!("--set {n}"))?);
         scene.validate().map_err(|e| format!("--set {set}: {e}"))?;
     }
-    let _ = held;
     for once in ["from-state", "points", "transient", "max-period", "max-branches", "phase", "forcing", "progress"] {
         args.single(once)?;
     }
@@ -125,10 +124,10 @@ fn parse_tie(text: &str, param: &str) -> Result<(String, f64, f64), String> {
     Ok((name.to_string(), scale, power))
 }
 
-/// The parameters `--set` holds and `--tie` ties, each named once and
-/// none the continued one `param`: a parameter given twice (or both held
-/// and tied) would leave one of the two silently unused.
-fn held_parameters<'a>(param: &str, sets: impl Iterator<Item = &'a str>, ties: impl Iterator<Item = &'a str>) -> Result<Vec<String>, String> {
+/// Checks that `--set` and `--tie` name each parameter once and none the
+/// continued one `param`: a parameter given twice (or both held and tied)
+/// would leave one of the two silently unused.
+fn held_once<'a>(param: &str, sets: impl Iterator<Item = &'a str>, ties: impl Iterator<Item = &'a str>) -> Result<(), String> {
     let mut seen: Vec<(String, String)> = Vec::new();
     for (option, text) in sets.map(|s| ("--set", s)).chain(ties.map(|t| ("--tie", t))) {
         let given = format!("{option} {text}");
@@ -143,7 +142,7 @@ fn held_parameters<'a>(param: &str, sets: impl Iterator<Item = &'a str>, ties: i
         }
         seen.push((name.to_string(), given));
     }
-    Ok(seen.into_iter().map(|(n, _)| n).collect())
+    Ok(())
 }
 
 /// `branch.csv` and `special.csv` written as each branch ends (a run
