@@ -221,6 +221,21 @@ pub trait Flow {
     fn advance_with_jacobian(&mut self, t: f64) -> Result<DMatrix<f64>, SimError>;
     /// Each stop's clearance now, in the scene's order.
     fn clearances(&self) -> Vec<Clearance>;
+    /// Each stop's surface in the state's coordinates, in the scene's order.
+    fn surfaces(&self) -> Vec<Surface>;
+}
+
+/// Where a stop's surface lies in the state's coordinates `[q; q']`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Surface {
+    /// The contact point's displacement is `shape . q`.
+    pub shape: DVector<f64>,
+    /// `shape . q` on the surface.
+    pub target: f64,
+    /// +1: the stop limits `shape . q <= target`; -1: `shape . q >= target`.
+    pub side: f64,
+    /// A rigid stop: no state of a run lies beyond it.
+    pub rigid: bool,
 }
 
 /// How far a contact point is from its stop, and how fast that changes.

@@ -21,6 +21,6 @@ pub mod profile;
 pub mod shooting;
 pub mod table;
 
-pub use continuation::{continue_orbits, Branch, Continuation, Diagram, Point, Special, SpecialKind};
+pub use continuation::{continue_orbits, continue_orbits_observed, Branch, Continuation, Diagram, Observer, Point, Silent, Special, SpecialKind};
 pub use profile::{profile, Approach, Profile};
-pub use shooting::{shoot, start_from, strobe, Orbit, Shooting};
+pub use shooting::{check_flow, minimal_period, shoot, start_from, strobe, Orbit, Shooting};

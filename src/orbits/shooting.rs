@@ -60,9 +60,79 @@ impl Orbit {
     }
 }
 
-/// A run of `scene` started at `t0` in state `x` (`[q; q']`).
+/// Whether the scene's runs have an exact flow with its Jacobian, which
+/// shooting needs (checked before anything is simulated); if not, which
+/// kind or which stop and law lacks it.
+pub fn check_flow(scene: &Component, t0: f64) -> Result<(), String> {
+    let inputs = vec![0.0; scene.inputs().len()];
+    let mut run = scene.start(t0, &inputs)?;
+    if run.flow().is_some() {
+        return Ok(());
+    }
+    let why = match scene.start_from_state(t0, &inputs, &[]) {
+        // The kind's reason, without its preamble (said here in full).
+        Err(e) => e.strip_prefix("a run from a given state is for shooting, which needs an exact flow: ").map(str::to_string).unwrap_or(e),
+        Ok(_) => "its runs have no exact flow".into(),
+    };
+    Err(format!(
+        "periodic orbits need the exact flow of the scene's runs and its Jacobian (the monodromy matrix Newton shoots with); \
+         the scene '{}' (kind '{}') has none: {why}",
+        scene.name(),
+        scene.kind().name()
+    ))
+}
+
+/// How far beyond a rigid stop a state may lie and still count as on it,
+/// relative to the size of the contact point's displacement: the
+/// precision to which the map's fixed points are computed.
+pub const ON_STOP: f64 = 1e-8;
+
+/// A run of `scene` started at `t0` in state `x` (`[q; q']`). A state of
+/// the map, not a scene's initial state: one beyond a rigid stop by no
+/// more than [`ON_STOP`] is on it, and starts from its projection onto
+/// the stop ([`onto_stops`]).
 pub fn start_from(scene: &Component, t0: f64, x: &DVector<f64>) -> Result<Box<dyn Run>, String> {
-    scene.start_from_state(t0, &vec![0.0; scene.inputs().len()], x.as_slice())
+    let inputs = vec![0.0; scene.inputs().len()];
+    match scene.start_from_state(t0, &inputs, x.as_slice()) {
+        Ok(run) => Ok(run),
+        Err(e) => match onto_stops(scene, t0, x) {
+            Some(on) => scene.start_from_state(t0, &inputs, on.as_slice()),
+            None => Err(e),
+        },
+    }
+}
+
+/// `x` with its displacements moved onto each rigid stop it lies beyond
+/// by no more than [`ON_STOP`] (relative), its velocities kept; `None`
+/// if it lies beyond none, or beyond one by more.
+///
+/// The move is the smallest in the kinetic-energy norm (the coordinates
+/// are mass-normalised modal ones): `q -= (s . q - target) s / |s|^2`,
+/// `s` the stop's shape. The velocity is left to the stop's law: one
+/// approaching the stop gets its impact at `t0`, as the orbit arriving
+/// there does.
+pub fn onto_stops(scene: &Component, t0: f64, x: &DVector<f64>) -> Option<DVector<f64>> {
+    let mut run = scene.start(t0, &vec![0.0; scene.inputs().len()]).ok()?;
+    let surfaces = run.flow()?.surfaces();
+    let n = x.len() / 2;
+    let mut q = x.rows(0, n).into_owned();
+    let mut moved = false;
+    for s in surfaces.iter().filter(|s| s.rigid && s.shape.len() == n) {
+        let displacement = s.shape.dot(&q);
+        let beyond = s.side * (displacement - s.target);
+        let scale = s.target.abs() + s.shape.iter().zip(q.iter()).map(|(a, b)| (a * b).abs()).sum::<f64>();
+        if beyond <= 0.0 {
+            continue;
+        }
+        if beyond > ON_STOP * scale {
+            return None;
+        }
+        q -= &s.shape * ((displacement - s.target) / s.shape.norm_squared());
+        moved = true;
+    }
+    let mut on = x.clone();
+    on.rows_mut(0, n).copy_from(&q);
+    moved.then_some(on)
 }
 
 /// The state after `periods` periods from the scene's own initial state at
@@ -107,4 +177,30 @@ pub fn shoot(scene: &Component, t0: f64, period: f64, guess: &DVector<f64>, sett
     }
     let shown: Vec<String> = residuals.iter().map(|r| format!("{r:.1e}")).collect();
     Err(format!("shooting: no convergence in {} Newton iterations (residuals {})", settings.max_iterations, shown.join(", ")))
+}
+
+/// The orbit over its minimal period. `orbit`, found over `periods`
+/// forcing periods of `forcing_period`, may repeat sooner (the guess's
+/// period was read off a slow transient): for each divisor `d` of
+/// `periods`, smallest first, whose state after `d` forcing periods is
+/// back at the start (to Newton's tolerance), the orbit shot over `d`
+/// periods from there, with that period's multipliers. Where the start
+/// returns only to 1e-6, Newton over `d` periods decides: the orbit it
+/// converges to must be the one given (within 1e-6 of its size).
+pub fn minimal_period(scene: &Component, orbit: Orbit, forcing_period: f64, settings: Shooting) -> Result<Orbit, String> {
+    let periods = (orbit.period / forcing_period).round() as usize;
+    let size = orbit.state.amax().max(f64::MIN_POSITIVE);
+    for d in (1..periods).filter(|d| periods % d == 0) {
+        let span = d as f64 * forcing_period;
+        let (end, _, _) = map(scene, orbit.t0, span, &orbit.state)?;
+        let returned = (&end - &orbit.state).amax() / size;
+        if returned <= 1e-6 {
+            if let Ok(shorter) = shoot(scene, orbit.t0, span, &orbit.state, settings) {
+                if returned <= settings.tolerance || (&shorter.state - &orbit.state).amax() <= 1e-6 * size {
+                    return Ok(shorter);
+                }
+            }
+        }
+    }
+    Ok(orbit)
 }

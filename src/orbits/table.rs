@@ -1,7 +1,7 @@
 //! The branches and special points of a [`Diagram`] as CSV tables
 //! (`branch.csv`, `special.csv`); list columns hold JSON arrays.
 
-use super::continuation::{Diagram, Point};
+use super::continuation::{Branch, Diagram, Point, Special};
 
 fn list(values: impl Iterator<Item = f64>) -> String {
     let items: Vec<String> = values.map(|v| format!("{v:?}")).collect();
@@ -38,22 +38,37 @@ fn point_columns(p: &Point) -> String {
 const POINT_HEADER: &str =
     "stable,n_unstable,impacts_per_period,sticks,period,periods,peak,norm,largest_multiplier,closest_gap,slowest_impact,section,multipliers_re,multipliers_im";
 
+/// `branch.csv`'s header line.
+pub fn branch_header(param: &str) -> String {
+    format!("branch,{param},{POINT_HEADER},state\n")
+}
+
+/// `branch.csv`'s rows of one branch.
+pub fn branch_rows(b: &Branch) -> String {
+    b.points.iter().map(|p| format!("{},{},{}\n", b.index, point_columns(p), state(p))).collect()
+}
+
+/// `special.csv`'s header line.
+pub fn special_header(param: &str) -> String {
+    format!("type,branch,{param},{POINT_HEADER},state,note\n")
+}
+
+/// `special.csv`'s rows of some special points.
+pub fn special_rows(special: &[Special]) -> String {
+    special.iter().map(|s| format!("{},{},{},{},\"{}\"\n", s.kind.code(), s.branch, point_columns(&s.point), state(&s.point), s.note.replace('"', "'"))).collect()
+}
+
+/// The orbit's state `[q; q']` at the section, as a list.
+fn state(p: &Point) -> String {
+    list(p.orbit.state.iter().copied())
+}
+
 /// `branch.csv`: one row per continuation point.
 pub fn branches_csv(d: &Diagram) -> String {
-    let mut out = format!("branch,{},{POINT_HEADER},state\n", d.param);
-    for b in &d.branches {
-        for p in &b.points {
-            out.push_str(&format!("{},{},{}\n", b.index, point_columns(p), list(p.orbit.state.iter().copied())));
-        }
-    }
-    out
+    d.branches.iter().fold(branch_header(&d.param), |out, b| out + &branch_rows(b))
 }
 
 /// `special.csv`: one row per special point.
 pub fn special_csv(d: &Diagram) -> String {
-    let mut out = format!("type,branch,{},{POINT_HEADER},note\n", d.param);
-    for s in &d.special {
-        out.push_str(&format!("{},{},{},\"{}\"\n", s.kind.code(), s.branch, point_columns(&s.point), s.note.replace('"', "'")));
-    }
-    out
+    special_header(&d.param) + &special_rows(&d.special)
 }

@@ -350,3 +350,142 @@ fn newton_converges_quadratically_on_spring_stops_and_a_period_two_response() {
         }
     }
 }
+
+#[test]
+fn scenes_without_an_exact_flow_are_refused_before_any_transient() {
+    // Hertz contact is integrated, the rotating beam too: refused up front
+    // with the reason, not by a transient that runs into its work cap.
+    for (file, said) in [("hertz_stop", "stop 'stop' (law 'hertz') has a nonlinear contact phase"), ("rotating_beam", "(kind 'rotating') has none")] {
+        let text = std::fs::read_to_string(format!("{}/scenes/{file}.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
+        let scene = Component::from_json(&text).unwrap();
+        let first = scene.parameters()[0].name.clone();
+        let value = scene.get(0);
+        let mut settings = Continuation::new(&first, value, value + 1.0);
+        settings.forcing = Some(first.clone());
+        let clock = std::time::Instant::now();
+        let e = continue_orbits(&scene, &settings).unwrap_err();
+        assert!(e.contains("periodic orbits need the exact flow") && e.contains(said), "{file}: {e}");
+        assert!(clock.elapsed().as_secs_f64() < 0.5, "{file}: refused after {:?}", clock.elapsed());
+    }
+}
+
+/// The three-mass chain of issue 44 (c = 0.05, stop on mass 3 at 0.5).
+fn chain3() -> Component {
+    let text = r#"{"name": "Chain3Stop", "structure": {"type": "chain", "masses": 3, "m": 1.0, "k": 1.0, "c": 0.05},
+        "loads": [{"type": "point_harmonic", "name": "A1", "mass": 1, "amplitude": 0.3, "omega": 0.5, "waveform": "cos"}],
+        "stops": [{"name": "stop", "mass": 3, "gap": 0.5, "side": "positive", "law": {"type": "restitution", "R": 0.8, "eps": 1e-6}}]}"#;
+    Component::from_json(text).unwrap()
+}
+
+#[test]
+fn an_orbit_is_reported_over_its_minimal_period() {
+    // At omega = 0.8 the transient's sections repeat best after 7 forcing
+    // periods, but the orbit found there is of period 1.
+    let mut settings = Continuation::new("A1.omega", 0.3, 2.0);
+    settings.starts = vec![0.8];
+    settings.points = 20;
+    settings.max_branches = 1;
+    let scene = chain3();
+    let d = continue_orbits(&scene, &settings).unwrap();
+    let b = &d.branches[0];
+    assert_eq!(b.periods, 1);
+    let at = b.points.iter().find(|p| p.param == 0.8).expect("the start is a point");
+    let period = 2.0 * PI / 0.8;
+    assert!((at.orbit.period - period).abs() < 1e-12 * period, "{}", at.orbit.period);
+    // Its multipliers are those of one period (Phi, not Phi^7: the largest
+    // is 0.962 here, 0.762 over seven).
+    let mut s = scene.clone();
+    let omega = s.parameters().iter().position(|p| p.name == "A1.omega").unwrap();
+    s.set(omega, 0.8);
+    let one = shoot(&s, 0.0, period, &at.orbit.state, Shooting::default()).unwrap();
+    assert_eq!(one.multipliers.len(), at.orbit.multipliers.len());
+    let mut a: Vec<f64> = one.multipliers.iter().map(|z| z.norm()).collect();
+    let mut b: Vec<f64> = at.orbit.multipliers.iter().map(|z| z.norm()).collect();
+    a.sort_by(f64::total_cmp);
+    b.sort_by(f64::total_cmp);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-9, "{a:?} against {b:?}");
+    }
+}
+
+#[test]
+fn steps_follow_the_orbits_size_to_the_grazing() {
+    // A clamped-clamped beam against a spring stop: its orbit grows eleven
+    // times from omega = 10 to the grazing at 20.83. Scaled by the first
+    // orbit's size the steps shrank to 8e-4 and the default run stopped at
+    // its 2,050-point limit at omega = 20.77.
+    let text = r#"{"name": "CCBeamSpring", "structure": {"type": "beam", "support": "clamped-clamped", "modes": 3}, "damping": {"zeta": 0.02},
+        "loads": [{"type": "point_harmonic", "name": "P", "x": 0.5, "amplitude": 2.0, "omega": 15.0, "waveform": "sin"}],
+        "stops": [{"name": "stop", "x": 0.3, "gap": 0.05, "side": "positive", "law": {"type": "spring_dashpot", "k": 500.0, "c": 0.0}}]}"#;
+    let scene = Component::from_json(text).unwrap();
+    let mut settings = Continuation::new("P.omega", 10.0, 35.0);
+    settings.max_branches = 1;
+    let d = continue_orbits(&scene, &settings).unwrap();
+    let grazing = d.special.iter().find(|s| s.kind == SpecialKind::Grazing).expect("a grazing");
+    assert!((grazing.point.param - 20.825943703).abs() < 1e-6, "{}: {}", grazing.point.param, grazing.note);
+    assert!(grazing.point.profile.closest.is_some_and(|c| c.gap.abs() < 1e-10), "{}", grazing.note);
+    // And on, round its folds, to the end of the range.
+    assert!(d.special.iter().any(|s| s.kind == SpecialKind::End && s.point.param == 35.0), "{:?}", d.special.iter().map(|s| &s.note).collect::<Vec<_>>());
+}
+
+/// The impact oscillator of issue 44: c = 0.2, omega = 0.8, gap 0.5, R = 0.8.
+fn oscillator_44() -> Component {
+    let text = r#"{"name": "ImpactOscillator", "structure": {"type": "chain", "masses": 1, "m": 1.0, "k": 1.0, "c": 0.2},
+        "loads": [{"type": "point_harmonic", "name": "A1", "mass": 1, "amplitude": 0.0985, "omega": 0.8, "waveform": "cos"}],
+        "stops": [{"name": "stop", "mass": 1, "gap": 0.5, "side": "positive", "law": {"type": "restitution", "R": 0.8, "eps": 1e-9}}],
+        "experiment": {"start": 0, "stop": 200, "step": 0.05}}"#;
+    Component::from_json(text).unwrap()
+}
+
+#[test]
+fn a_map_state_on_a_stop_to_rounding_is_on_it() {
+    let scene = oscillator(0.15);
+    // Beyond the stop (d = 1) by 2.4e-10, approaching: started on the stop,
+    // where its impact comes at once.
+    let x = DVector::from_vec(vec![1.0 + 2.4e-10, 0.3]);
+    let mut run = start_from(&scene, 0.0, &x).unwrap();
+    let c = run.flow().unwrap().clearances()[0];
+    assert!(c.gap == 0.0 && c.displacement == 1.0, "{c:?}");
+    // The stop's law acts at t0: the impact, R = 0.8.
+    assert!((run.flow().unwrap().state()[1] + 0.8 * 0.3).abs() < 1e-15, "{}", run.flow().unwrap().state());
+    run.advance_to(0.1).unwrap();
+    let after = run.flow().unwrap().state();
+    assert!(after[0] < 1.0 && after[1] < 0.0, "bounced off the stop: {after}");
+    // Deeper than 1e-8 of the stop's scale: refused, as an initial state is.
+    let deep = start_from(&scene, 0.0, &DVector::from_vec(vec![1.0 + 1e-7, 0.3])).unwrap_err();
+    assert!(deep.contains("penetrates"), "{deep}");
+}
+
+fn diagram_44(from: f64) -> beamstop::orbits::Diagram {
+    let settings = Continuation::new("A1.amplitude", from, 0.3939543120718441);
+    continue_orbits(&oscillator_44(), &settings).unwrap()
+}
+
+#[test]
+fn rounding_does_not_end_branches_or_move_special_points() {
+    // FROM and one ulp less: before, the period-1 branch ended at A =
+    // 0.3545 on an iterate 2.4e-10 inside the stop (its impact passes
+    // through the section there), and the period-2 branch had 30 points
+    // or 199.
+    let (a, b) = (diagram_44(0.09848857801796104), diagram_44(0.09848857801796103));
+    for d in [&a, &b] {
+        assert!(d.special.iter().all(|s| !s.note.contains("penetrates")), "{:?}", d.special.iter().map(|s| &s.note).collect::<Vec<_>>());
+        let ends: Vec<f64> = d.special.iter().filter(|s| s.branch == 0 && s.kind == SpecialKind::End).map(|s| s.point.param).collect();
+        assert!(ends.contains(&0.3939543120718441), "branch 0 ends at {ends:?}");
+    }
+    assert_eq!(a.branches.len(), b.branches.len());
+    let key = |d: &beamstop::orbits::Diagram| {
+        let mut v: Vec<(usize, &'static str, f64)> = d.special.iter().map(|s| (s.branch, s.kind.code(), s.point.param)).collect();
+        v.sort_by(|x, y| (x.0, x.1).cmp(&(y.0, y.1)).then(x.2.total_cmp(&y.2)));
+        v
+    };
+    let (ka, kb) = (key(&a), key(&b));
+    assert_eq!(ka.len(), kb.len(), "{ka:?}\n{kb:?}");
+    for (x, y) in ka.iter().zip(&kb) {
+        assert!(x.0 == y.0 && x.1 == y.1 && (x.2 - y.2).abs() <= 1e-9 * x.2.abs(), "{x:?} against {y:?}\n{ka:?}\n{kb:?}");
+    }
+    // The period-2 branch ends where it meets the period-1 orbit's grazing.
+    let grazing = ka.iter().find(|s| s.0 == 0 && s.1 == "GR").unwrap().2;
+    let end = ka.iter().filter(|s| s.0 == 1 && s.1 == "EP").map(|s| s.2).fold(f64::INFINITY, f64::min);
+    assert!((end - grazing).abs() <= 1e-9 * grazing, "{end} against {grazing}");
+}

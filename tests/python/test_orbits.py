@@ -88,3 +88,111 @@ def test_a_sweep_needs_the_scenes_fmu(tmp_path, capsys):
     code = orbits.main([str(scene), "--param", "A.amplitude=0.05:0.2", "--sweep-points", "5", "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
     assert code == 2 and "ImpactOscillator.fmu is missing" in err and "beamstop package" in err
+
+
+# ---------------------------------------------------------------- the command line itself
+
+def _beamstop(*args, **kw):
+    import subprocess
+    from beamstop_tools import engine
+    return subprocess.run([str(engine.binary()), *map(str, args)], capture_output=True, text=True, **kw)
+
+
+def _scene(tmp_path, **changes):
+    scene = json.loads(json.dumps(OSCILLATOR))
+    scene.update(changes)
+    path = tmp_path / "oscillator.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
+def _rows(path):
+    import csv
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.mark.parametrize("args", [["--help"], ["-h"], ["help"], ["help", "orbits"], ["orbits", "--help"],
+                                  ["orbits", "x.json", "--param", "--help"], ["run", "--help"], ["describe", "-h"],
+                                  ["package", "--help"], ["check", "--help"]])
+def test_help_prints_the_usage_and_succeeds(args):
+    done = _beamstop(*args)
+    assert done.returncode == 0 and "usage" in done.stdout and done.stderr == "", (args, done.stdout, done.stderr)
+    if "orbits" in args:
+        assert "--param NAME=FROM:TO" in done.stdout
+
+
+def test_every_option_takes_its_value_after_an_equals_sign(tmp_path):
+    # The linear orbit at A = 0.05 is x = (A / c) sin t: [q; q'] = [0, 0.5] at t0 = 0.
+    scene = _scene(tmp_path)
+    spaced = ["--param", "A.amplitude=0.05:0.08", "--from-state", "0,0.5", "--points", "10", "--transient", "5",
+              "--max-period", "2", "--max-branches", "1", "--phase", "0", "--forcing", "A.omega", "--set", "stop.R=0.8",
+              "--progress", "5"]
+    joined = [f"{a}={b}" for a, b in zip(spaced[::2], spaced[1::2])]
+    for words, out in ((spaced, "spaced"), (joined, "joined")):
+        done = _beamstop("orbits", scene, *words, f"--out={tmp_path / out}")
+        assert done.returncode == 0, done.stderr
+    assert (tmp_path / "spaced" / "branch.csv").read_text() == (tmp_path / "joined" / "branch.csv").read_text()
+    assert len(_rows(tmp_path / "joined" / "branch.csv")) > 5
+    done = _beamstop("run", scene, "--stop=1", "--step=0.5", f"--out={tmp_path / 'run'}")
+    assert done.returncode == 0 and (tmp_path / "run" / "ImpactOscillator.csv").exists(), done.stderr
+
+
+@pytest.mark.parametrize("words, said", [
+    (["--set", "stop.R=0.7", "--set", "stop.R=0.9"], "--set stop.R=0.9: the parameter 'stop.R' is already given by --set stop.R=0.7"),
+    (["--set", "stop.R=0.7", "--tie", "stop.R=2*A.amplitude^1"], "--tie stop.R=2*A.amplitude^1: the parameter 'stop.R' is already given by --set stop.R=0.7"),
+    (["--tie", "stop.R=2*A.amplitude", "--tie", "stop.R=3*A.amplitude"], "--tie stop.R=3*A.amplitude: the parameter 'stop.R' is already given by --tie"),
+    (["--set", "A.amplitude=0.1"], "--set A.amplitude=0.1: 'A.amplitude' is the continued parameter"),
+    (["--tie", "A.amplitude=2*A.amplitude"], "--tie A.amplitude=2*A.amplitude: 'A.amplitude' is the continued parameter"),
+    (["--points", "10", "--points=20"], "--points is given twice (10 and 20)"),
+    (["--bogus", "1"], "unknown option --bogus"),
+])
+def test_a_parameter_held_or_tied_twice_is_refused(tmp_path, words, said):
+    scene = _scene(tmp_path)
+    done = _beamstop("orbits", scene, "--param", "A.amplitude=0.05:0.2", "--out", tmp_path / "o", *words)
+    assert done.returncode == 1 and said in done.stderr, done.stderr
+
+
+def test_special_points_carry_the_state_as_branch_rows_do(tmp_path):
+    scene = _scene(tmp_path)
+    done = _beamstop("orbits", scene, "--param", "A.amplitude=0.05:0.2", "--points", "40", "--out", tmp_path / "o")
+    assert done.returncode == 0, done.stderr
+    branch, special = _rows(tmp_path / "o" / "branch.csv"), _rows(tmp_path / "o" / "special.csv")
+    assert list(special[0])[-2:] == ["state", "note"]
+    ends = [s for s in special if s["type"] == "EP"]
+    assert ends and all(len(json.loads(s["state"])) == 2 for s in special)
+    # The branch's end points are rows of the branch, state and all.
+    rows = {(r["A.amplitude"], r["state"]) for r in branch}
+    assert all((s["A.amplitude"], s["state"]) in rows for s in ends)
+    # Progress on stderr: each branch's start and end.
+    assert "orbits: branch 0 (period 1 T) starts at A.amplitude = 0.05" in done.stderr
+    assert "orbits: branch 0 ends:" in done.stderr
+
+
+def test_a_stopped_run_leaves_the_branches_it_finished(tmp_path):
+    """The impact oscillator of issue 44 (c = 0.2, w = 0.8, d = 0.5): branch 0
+    ends long before the period-doubled branches do; the run is stopped as
+    soon as it says so, and its tables hold branch 0."""
+    import signal
+    import subprocess
+    from beamstop_tools import engine
+    scene = _scene(tmp_path, structure={"type": "chain", "masses": 1, "m": 1.0, "k": 1.0, "c": 0.2},
+                   loads=[{"type": "point_harmonic", "name": "A", "mass": 1, "amplitude": 0.0985, "omega": 0.8, "waveform": "cos"}],
+                   stops=[{"name": "stop", "mass": 1, "gap": 0.5, "side": "positive",
+                           "law": {"type": "restitution", "R": 0.8, "eps": 1e-9}}])
+    out = tmp_path / "o"
+    p = subprocess.Popen([str(engine.binary()), "orbits", str(scene), "--param", "A.amplitude=0.0985:0.3939543120718441",
+                          "--points", "2000", "--out", str(out)], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        for line in p.stderr:
+            if line.startswith("orbits: branch 0 ends"):
+                p.send_signal(signal.SIGSTOP)
+                break
+        assert p.poll() is None, "the run ended before it could be stopped"
+        rows = _rows(out / "branch.csv")
+        assert rows and {r["branch"] for r in rows} == {"0"}
+        assert int(line.split(": ")[2].split()[0]) == len(rows)
+        assert {r["branch"] for r in _rows(out / "special.csv")} == {"0"}
+    finally:
+        p.kill()
+        p.wait()

@@ -22,7 +22,8 @@ use beamstop::package::{variants, write_fmu, FmiVersion};
 use beamstop::variables::Value;
 use beamstop::Component;
 
-const USAGE: &str = "usage:
+const USAGE: &str = "usage (an option's value as `--name value` or `--name=value`; `beamstop help [COMMAND]`,
+`beamstop [COMMAND] --help` print this):
   beamstop package [--fmi3] [scene.json ...]
                                           build FMI 2.0 FMUs into target/fmu, with --fmi3 FMI 3.0 FMUs into
                                           target/fmu3 (default: every scene in scenes/)
@@ -61,16 +62,19 @@ fn builtin_scenes() -> Result<Vec<PathBuf>, String> {
     Ok(files)
 }
 
-/// The standard an `--fmi3` among the arguments asks for, and the rest.
-fn version(args: &[String]) -> (FmiVersion, Vec<String>) {
-    let fmi3 = args.iter().any(|a| a == "--fmi3");
-    let rest = args.iter().filter(|a| *a != "--fmi3").cloned().collect();
-    (if fmi3 { FmiVersion::Fmi3 } else { FmiVersion::Fmi2 }, rest)
+/// The standard `--fmi3` asks for.
+fn version(args: &Args) -> FmiVersion {
+    if args.flag("fmi3") {
+        FmiVersion::Fmi3
+    } else {
+        FmiVersion::Fmi2
+    }
 }
 
 fn package(args: &[String]) -> Result<(), String> {
-    let (version, args) = version(args);
-    let files = if args.is_empty() { builtin_scenes()? } else { args.iter().map(PathBuf::from).collect() };
+    let args = parse(args, &[], &["fmi3"]).map_err(|e| format!("package: {e}"))?;
+    let version = version(&args);
+    let files = if args.positional.is_empty() { builtin_scenes()? } else { args.positional.iter().map(PathBuf::from).collect() };
     // Validate everything first: no FMU is written from an invalid scene.
     let scenes: Vec<Component> = files.iter().map(|f| load(f)).collect::<Result<_, _>>()?;
     // Each scene gets the smallest prebuilt binary that carries it.
@@ -108,41 +112,21 @@ fn describe_contents(scene: &Component, version: FmiVersion) -> Result<(), Strin
     Ok(())
 }
 
-fn flag(args: &[String], name: &str) -> Result<Option<String>, String> {
-    match args.iter().position(|a| a == name) {
-        None => Ok(None),
-        Some(i) => args.get(i + 1).cloned().map(Some).ok_or(format!("{name} needs a value")),
-    }
-}
-
-fn number(args: &[String], name: &str) -> Result<Option<f64>, String> {
-    flag(args, name)?.map(|s| s.parse::<f64>().map_err(|_| format!("{name} {s}: not a number"))).transpose()
-}
-
 fn run(args: &[String]) -> Result<(), String> {
-    let positional: Vec<&String> = {
-        let mut v = Vec::new();
-        let mut skip = false;
-        for a in args {
-            if skip {
-                skip = false;
-            } else if a.starts_with("--") {
-                skip = true;
-            } else {
-                v.push(a);
-            }
-        }
-        v
-    };
+    let args = parse(args, &["stop", "step", "out"], &[]).map_err(|e| format!("run: {e}"))?;
+    if args.positional.len() > 1 {
+        return Err(format!("run: one scene file at most (given {})", args.positional.join(", ")));
+    }
+    let positional = &args.positional;
     let file = positional.first().map(PathBuf::from).unwrap_or_else(|| root().join("scenes").join("pinned_beam.json"));
     let scene = load(&file)?;
     let experiment = scene.experiment();
-    let stop = number(args, "--stop")?.unwrap_or(experiment.stop);
-    let step = number(args, "--step")?.unwrap_or(experiment.step);
+    let stop = args.number("stop")?.unwrap_or(experiment.stop);
+    let step = args.number("step")?.unwrap_or(experiment.step);
     if !(step > 0.0) {
         return Err(format!("--step {step}: must be > 0"));
     }
-    let out_dir = flag(args, "--out")?.map(PathBuf::from).unwrap_or_else(|| root().join("target").join("results"));
+    let out_dir = args.single("out")?.map(PathBuf::from).unwrap_or_else(|| root().join("target").join("results"));
     std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let start = experiment.start;
     let mut sim = scene.start(start, &vec![0.0; scene.inputs().len()])?;
@@ -221,18 +205,48 @@ fn modes(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+mod args;
 mod orbits;
+
+use args::{is_help, parse, Args};
+
+/// `describe [--fmi3] [--contents] scene.json`.
+fn describe(args: &[String]) -> Result<(), String> {
+    let args = parse(args, &[], &["fmi3", "contents"]).map_err(|e| format!("describe: {e}"))?;
+    let [file] = args.positional.as_slice() else {
+        return Err(format!("describe: one scene file (given {})\n{USAGE}", args.positional.len()));
+    };
+    let scene = load(Path::new(file))?;
+    if args.flag("contents") {
+        describe_contents(&scene, version(&args))
+    } else {
+        version(&args).model_description(&scene).map(|x| print!("{x}"))
+    }
+}
+
+/// What `beamstop [COMMAND] --help` prints.
+fn help(command: Option<&str>) -> String {
+    match command {
+        Some("orbits") => format!("usage:\n{}", orbits::USAGE),
+        _ => format!("{USAGE}\n{}", orbits::USAGE),
+    }
+}
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    // `beamstop help [COMMAND]`, `beamstop [COMMAND] --help` (or -h): the usage, on stdout.
+    if args.first().is_some_and(|a| a == "help") {
+        println!("{}", help(args.get(1).map(String::as_str)));
+        return ExitCode::SUCCESS;
+    }
+    if args.iter().any(|a| is_help(a)) {
+        println!("{}", help(args.first().map(String::as_str).filter(|a| !is_help(a))));
+        return ExitCode::SUCCESS;
+    }
     let result = match args.first().map(String::as_str) {
         Some("package") => package(&args[1..]),
         Some("run") => run(&args[1..]),
-        Some("describe") => match version(&args[1..]) {
-            (version, rest) if rest.len() == 1 => load(Path::new(&rest[0])).and_then(|s| version.model_description(&s)).map(|x| print!("{x}")),
-            (version, rest) if rest.len() == 2 && rest[0] == "--contents" => load(Path::new(&rest[1])).and_then(|s| describe_contents(&s, version)),
-            _ => Err(USAGE.into()),
-        },
+        Some("describe") => describe(&args[1..]),
         Some("variants") => {
             list_variants();
             Ok(())

@@ -9,7 +9,7 @@ use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
 use crate::kinds::modal::interface::{self, OutputKey};
-use crate::kind::{Clearance, EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Work};
+use crate::kind::{Clearance, EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Surface, Work};
 use crate::kinds::modal::model::Model;
 use crate::kinds::modal::readout;
 use crate::kinds::modal::sim::{EventKind, Simulation};
@@ -209,5 +209,14 @@ impl Flow for ModalRun {
 
     fn clearances(&self) -> Vec<Clearance> {
         self.sim.clearances()
+    }
+
+    fn surfaces(&self) -> Vec<Surface> {
+        self.sim
+            .model()
+            .stops
+            .iter()
+            .map(|s| Surface { shape: s.geometry.w.clone(), target: s.geometry.target(), side: s.geometry.side, rigid: s.law.rigid() })
+            .collect()
     }
 }

@@ -183,12 +183,16 @@ impl Model {
     /// Why runs of this model have no exact flow (for shooting), if they
     /// have none: a phase without a closed form, or a basis that changes.
     pub fn flow_unsupported(&self) -> Option<String> {
-        if self.stops.iter().any(|s| s.law.mode_transfer().is_some()) {
-            return Some("mode transfer changes the modal basis at contact: its flow is not a map of one state vector".into());
+        if let Some(s) = self.stops.iter().find(|s| s.law.mode_transfer().is_some()) {
+            return Some(format!(
+                "stop '{}' (law '{}') uses mode transfer, which changes the modal basis at contact: its flow is not a map of one state vector",
+                s.name,
+                s.law.name()
+            ));
         }
-        let integrated = |s: &StopModel| [Contact::Open, Contact::Pressed, Contact::Held, Contact::Penetrated].iter().any(|c| s.law.term(*c) == PhaseTerm::Nonlinear);
-        if self.stops.iter().any(integrated) {
-            return Some("a nonlinear (Hertz) contact phase is integrated: its flow has no closed form".into());
+        let integrated = |s: &&StopModel| [Contact::Open, Contact::Pressed, Contact::Held, Contact::Penetrated].iter().any(|c| s.law.term(*c) == PhaseTerm::Nonlinear);
+        if let Some(s) = self.stops.iter().find(integrated) {
+            return Some(format!("stop '{}' (law '{}') has a nonlinear contact phase, which is integrated: its flow has no closed form", s.name, s.law.name()));
         }
         None
     }

@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 use nalgebra::{DMatrix, DVector};
 
 use super::super::profile::profile;
-use super::super::shooting::{map, shoot, start_from, Orbit, Shooting};
+use super::super::shooting::{map, minimal_period, shoot, start_from, Orbit, Shooting};
 use super::{Continuation, Point};
 use crate::component::Component;
 
@@ -36,6 +36,8 @@ pub(super) struct Walker {
     pub(super) max_points: usize,
     pub(super) evaluations: usize,
     pub(super) scenes: RefCell<Vec<(f64, Component)>>,
+    /// The stops' surfaces at the last few parameter values.
+    pub(super) surfaces: RefCell<Vec<(f64, Vec<crate::kind::Surface>)>>,
     /// `(parameter, scale, power)`: see [`Continuation::tied`].
     pub(super) tied: Vec<(usize, f64, f64)>,
     /// Orbits found beyond a grazing that does not continue into them:
@@ -81,6 +83,7 @@ impl Walker {
         let shooting = Shooting { tolerance: settings.tolerance, max_iterations: 40 };
         let orbit = shoot(&at_start, self.t0, periods as f64 * forcing_period, &guess, shooting)
             .map_err(|e| format!("the first orbit ({periods} forcing periods): {e}"))?;
+        let orbit = minimal_period(&at_start, orbit, forcing_period, shooting)?;
         self.point(start, orbit)
     }
 
@@ -89,13 +92,8 @@ impl Walker {
     pub(super) fn settle(&self, scene: &Component, forcing_period: f64, transient: usize, max_period: usize) -> Result<(DVector<f64>, usize), String> {
         let mut run = scene.start(self.t0, &vec![0.0; scene.inputs().len()])?;
         run.advance_to(self.t0 + transient as f64 * forcing_period).map_err(|e| e.to_string())?;
-        if run.flow().is_none() {
-            // The kind says why (an integrated or mode-transfer phase).
-            let inputs = vec![0.0; scene.inputs().len()];
-            return Err(scene.start_from_state(self.t0, &inputs, &[]).err().unwrap_or_else(|| "the scene's kind has no exact flow".into()));
-        }
-        let flow = run.flow().expect("checked");
-        let x = flow.state();
+        // A scene without an exact flow is refused before (shooting::check_flow).
+        let x = run.flow().ok_or("the scene's kind has no exact flow")?.state();
         let mut copy = run.clone();
         let mut best = (f64::INFINITY, 1);
         for m in 1..=max_period {

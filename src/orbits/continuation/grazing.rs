@@ -181,6 +181,18 @@ impl Walker {
             }
         }
         let (_, beyond, side) = best.ok_or(why)?;
+        // Approached from the impacting side, the grazing is located only
+        // as well as Newton finds orbits with a vanishing impact (the
+        // map's square root); where the orbit beyond has lost that impact
+        // its closest approach closes linearly in the parameter: the
+        // grazing is located on that side.
+        if by_speed && beyond.profile.impacts < grazing.profile.impacts {
+            // A second orbit as far again from the grazing.
+            let far = self.at_parameter(beyond.param + (beyond.param - grazing.param), periods, &beyond.orbit.state);
+            if let Some(located) = far.ok().and_then(|far| self.refine_by_gap(&far, &beyond, periods)) {
+                grazing = located;
+            }
+        }
         let mut direction = DVector::zeros(tangent.len());
         direction[tangent.len() - 1] = side;
         let next_tangent = self.tangent(&beyond, periods, &direction)?;
@@ -229,6 +241,54 @@ impl Walker {
         }
         let estimate = (f1 != f0).then(|| p1 - f1 * (p1 - p0) / (f1 - f0));
         (best, estimate)
+    }
+}
+
+impl Walker {
+    /// The grazing orbit where the closest approach to a stop of the
+    /// orbits through `far` and then `near` (the same impacts) closes: the
+    /// secant method on that gap, linear in the parameter, each orbit by
+    /// Newton in the state at a fixed parameter; a value where Newton
+    /// finds no orbit with that gap bounds the next trials. `None` if
+    /// either has no closest approach.
+    pub(super) fn refine_by_gap(&mut self, far: &Point, near: &Point, periods: usize) -> Option<Point> {
+        let impacts = near.profile.impacts;
+        let gap = |p: &Point| p.profile.closest.filter(|_| p.profile.impacts == impacts).map(|c| c.gap).filter(|g| *g >= 0.0);
+        let (g0, g1) = (gap(far)?, gap(near)?);
+        let beyond = near;
+        let (mut p0, mut f0, mut x0) = (far.param, g0, far.orbit.state.clone());
+        let (mut p1, mut f1) = (beyond.param, g1);
+        let mut best = beyond.clone();
+        let mut closest = (beyond.clone(), g1);
+        let scale = g0.max(g1);
+        let width = p1.abs().max(self.range.1 - self.range.0);
+        let mut bound = f64::NAN;
+        for _ in 0..40 {
+            // The gap closed, or the parameter resolved (the gap's rounding
+            // is about 1e-16 of the displacement).
+            if f1 <= 1e-12 * scale || (p1 - p0).abs() <= 1e-13 * width || (bound - p1).abs() <= 1e-13 * width {
+                break;
+            }
+            let mut p = if f1 != f0 { p1 - f1 * (p1 - p0) / (f1 - f0) } else { f64::NAN };
+            let direction = (p1 - p0).signum();
+            let inside = |p: f64| (p - p1) * direction > 0.0 && (bound.is_nan() || (bound - p) * direction > 0.0);
+            if !inside(p) {
+                p = if bound.is_nan() { p1 + (p1 - p0) } else { 0.5 * (p1 + bound) };
+            }
+            let guess = &best.orbit.state + (&best.orbit.state - &x0) * ((p - p1) / (p1 - p0));
+            match self.at_parameter(p, periods, &guess) {
+                Ok(point) if gap(&point).is_some() => {
+                    (p0, f0, p1, f1) = (p1, f1, p, gap(&point).expect("checked"));
+                    if f1 < closest.1 {
+                        closest = (point.clone(), f1);
+                    }
+                    x0 = std::mem::replace(&mut best, point).orbit.state;
+                }
+                _ => bound = p,
+            }
+        }
+        // The gap is resolved to rounding: the smallest found.
+        Some(closest.0)
     }
 }
 

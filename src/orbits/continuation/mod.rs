@@ -6,8 +6,8 @@
 //! Its Jacobian is `[M - I, G_p]`: `M` the exact monodromy matrix, `G_p`
 //! by central differences in `p` (a parameter such as the gap rebuilds the
 //! model; a forcing frequency also changes the period). Steps are taken in
-//! scaled coordinates (the state by the size of its branch's first orbit,
-//! the parameter by the range's width): a tangent predictor, then Newton on `G = 0`
+//! scaled coordinates (the state by the size of its branch's largest
+//! orbit so far, the parameter by the range's width): a tangent predictor, then Newton on `G = 0`
 //! within the hyperplane normal to the tangent, so a branch goes round its
 //! folds. The map is continuous where the impact sequence changes
 //! (grazing, a chatter ending in a stick), so a branch continues across it.
@@ -36,6 +36,7 @@
 
 mod corrector;
 mod grazing;
+mod section;
 mod special;
 mod walk;
 
@@ -119,6 +120,14 @@ pub struct Point {
 }
 
 impl Point {
+    /// The orbit's size, the scale of its state in the continuation's
+    /// steps: the RMS of the state's norm over the period
+    /// ([`Profile::norm`]), or the state's norm where that is zero.
+    pub fn size(&self) -> f64 {
+        let size = if self.profile.norm > 0.0 { self.profile.norm } else { self.orbit.state.norm() };
+        size.max(1e-300)
+    }
+
     /// Forcing periods per orbit period.
     pub fn periods(&self) -> usize {
         (self.orbit.period / self.forcing_period).round() as usize
@@ -183,8 +192,38 @@ pub struct Diagram {
     pub evaluations: usize,
 }
 
+/// What a continuation reports as it goes: the command line prints its
+/// progress and writes each branch's rows as soon as the branch ends.
+pub trait Observer {
+    /// A branch starts from `first` (its orbit of `periods` forcing periods).
+    fn branch_started(&mut self, index: usize, periods: usize, first: &Point) {
+        let _ = (index, periods, first);
+    }
+    /// A point is accepted on branch `branch`.
+    fn point(&mut self, branch: usize, point: &Point) {
+        let _ = (branch, point);
+    }
+    /// A branch is finished: its points and its special points.
+    fn branch_ended(&mut self, branch: &Branch, special: &[Special]) {
+        let _ = (branch, special);
+    }
+}
+
+/// An observer that does nothing.
+pub struct Silent;
+
+impl Observer for Silent {}
+
 /// The orbits of a scene over one parameter's range (module doc).
 pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Diagram, String> {
+    continue_orbits_observed(scene, settings, &mut Silent)
+}
+
+/// [`continue_orbits`], telling `observer` what it does as it goes.
+pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, observer: &mut dyn Observer) -> Result<Diagram, String> {
+    // Before any transient is simulated: without an exact flow there is
+    // nothing to shoot with.
+    super::shooting::check_flow(scene, settings.t0)?;
     let param = parameter(scene, &settings.param)?;
     let forcing = match &settings.forcing {
         Some(name) => parameter(scene, name)?,
@@ -215,6 +254,7 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
         max_points: 10 * settings.points + 50,
         evaluations: 0,
         scenes: Default::default(),
+        surfaces: Default::default(),
         restarts: Vec::new(),
         tied: settings.tied.iter().map(|(name, scale, power)| parameter(scene, name).map(|i| (i, *scale, *power))).collect::<Result<_, _>>()?,
     };
@@ -238,18 +278,21 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             }
             let index = diagram.branches.len();
             let periods = first.periods();
-            // Each branch scales the state by its first orbit's size.
-            walker.weight_x = 1.0 / first.orbit.state.norm().max(1e-300);
+            // Each branch scales the state by its largest orbit so far, from its first.
+            walker.weight_x = 1.0 / first.size();
             let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
             increasing[first.orbit.state.len()] = 1.0;
             let tangent = walker.tangent(&first, periods, &increasing)?;
+            observer.branch_started(index, periods, &first);
             let mut others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
-            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut doublings)?;
+            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut doublings, observer)?;
             others.push(&forward);
-            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut doublings)?;
+            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut doublings, observer)?;
             let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
             points.append(&mut forward);
-            diagram.branches.push(Branch { index, periods, points });
+            let branch = Branch { index, periods, points };
+            observer.branch_ended(&branch, &branch_special(&diagram.special, index));
+            diagram.branches.push(branch);
         }
     }
     let mut next = 0;
@@ -262,12 +305,15 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
             continue;
         }
         let index = diagram.branches.len();
-        walker.weight_x = 1.0 / at.orbit.state.norm().max(1e-300);
+        walker.weight_x = 1.0 / at.size();
         match walker.switch(&at, periods) {
             Ok((point, tangent)) => {
+                observer.branch_started(index, periods, &point);
                 let others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
-                let points = walker.walk(index, periods, point, tangent, true, &others, &mut diagram.special, &mut doublings)?;
-                diagram.branches.push(Branch { index, periods, points });
+                let points = walker.walk(index, periods, point, tangent, true, &others, &mut diagram.special, &mut doublings, observer)?;
+                let branch = Branch { index, periods, points };
+                observer.branch_ended(&branch, &branch_special(&diagram.special, index));
+                diagram.branches.push(branch);
             }
             Err(e) => diagram.notes.push(format!("the period doubling at {} = {}: no switch onto the doubled branch: {e}", settings.param, at.param)),
         }
@@ -277,6 +323,11 @@ pub fn continue_orbits(scene: &Component, settings: &Continuation) -> Result<Dia
     }
     diagram.evaluations = walker.evaluations;
     Ok(diagram)
+}
+
+/// The special points of branch `index`.
+fn branch_special(special: &[Special], index: usize) -> Vec<Special> {
+    special.iter().filter(|s| s.branch == index).cloned().collect()
 }
 
 /// Whether `point` lies on the branch through `points`: the same period,
