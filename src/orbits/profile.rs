@@ -19,6 +19,10 @@ pub struct Profile {
     pub norm: f64,
     /// Rigid impacts and compliant contact onsets.
     pub impacts: usize,
+    /// The rigid impacts among them (a compliant onset comes and goes
+    /// with the branch passing smoothly through its grazing; a rigid
+    /// impact's grazing is a crossing of its own).
+    pub rigid_impacts: usize,
     /// Sticking onsets on rigid stops.
     pub sticks: usize,
     /// The smallest approach speed of those impacts.
@@ -70,6 +74,7 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
         peak: before.first().map_or(f64::NEG_INFINITY, |c| c.displacement),
         norm: 0.0,
         impacts: 0,
+        rigid_impacts: 0,
         sticks: 0,
         slowest_impact: None,
         closest: None,
@@ -86,6 +91,7 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
             match e.class {
                 EventClass::Impact | EventClass::ContactOnset => {
                     profile.impacts += 1;
+                    profile.rigid_impacts += usize::from(e.class == EventClass::Impact);
                     if let Some(v) = e.speed {
                         profile.slowest_impact = Some(profile.slowest_impact.map_or(v.abs(), |s: f64| s.min(v.abs())));
                     }

@@ -14,6 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from beamstop_tools import orbits
+from conftest import FULL, ROOT
 
 OSCILLATOR = {
     "name": "ImpactOscillator",
@@ -196,3 +197,21 @@ def test_a_stopped_run_leaves_the_branches_it_finished(tmp_path):
     finally:
         p.kill()
         p.wait()
+
+
+@pytest.mark.skipif(not FULL, reason="about a minute: scripts/test --full")
+def test_the_hard_spring_stop_branch_goes_on_through_its_grazings(tmp_path):
+    """SpringStopHard's frequency response (`scripts/sweep-figures
+    hard-orbits`, its continuation alone): a compliant onset vanishing at a
+    grazing does not end the branch, which reaches the range's low end
+    through the tori at 108.82 and 105.10 and the period doubling at 94.388
+    (report/sweeps/hard-orbits_special.csv)."""
+    w1 = 104.99411180231543
+    result = orbits.continue_orbits(ROOT / "scenes" / "spring_stop_hard.json", "shaker.omega", 0.8 * w1, 1.6 * w1,
+                                    start=[1.6 * w1], ties=["shaker.amplitude=-2e-4*shaker.omega^2"], points=100,
+                                    max_branches=4, out=tmp_path / "hard")
+    lowest = min(r["shaker.omega"] for r in result.branch.to_pylist())
+    assert lowest == pytest.approx(0.8 * w1, rel=1e-12)
+    special = result.special.to_pylist()
+    for kind, at in [("NS", 108.8220912), ("NS", 105.1031517), ("PD", 94.38834366)]:
+        assert any(s["type"] == kind and abs(s["shaker.omega"] - at) < 1e-8 * at for s in special), (kind, at, special)

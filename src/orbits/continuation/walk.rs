@@ -60,12 +60,14 @@ impl Walker {
                 && points.len() >= 2
                 && self.section_ahead(&points[points.len() - 2], &last, self.distance(&points[points.len() - 2], &last)).is_some_and(|s| s < 2.0 * ds);
             let stalled = (ds < self.ds_max * 1e-2 || grazing_near || section_near) && !tried_crossing;
-            // A step that loses an impact whose speed was vanishing has
-            // crossed a grazing Newton cannot locate from there (where the
-            // branch may turn back): the crossing below locates it.
+            // A step that loses a rigid impact whose speed was vanishing
+            // has crossed a grazing Newton cannot locate from there (where
+            // the branch may turn back): the crossing below locates it. (A
+            // compliant stop's onset vanishes with the branch going on
+            // through its grazing: the step stands.)
             let slow_impact_lost = |p: &Point| {
                 let previous = points.len().checked_sub(2).map(|i| &points[i]);
-                p.profile.impacts < last.profile.impacts
+                p.profile.rigid_impacts < last.profile.rigid_impacts
                     && previous.is_some_and(|q| {
                         q.profile.impacts == last.profile.impacts
                             && matches!((q.profile.slowest_impact, last.profile.slowest_impact), (Some(a), Some(b)) if b < a)
