@@ -123,6 +123,22 @@ def test_help_prints_the_usage_and_succeeds(args):
         assert "--param NAME=FROM:TO" in done.stdout
 
 
+def test_output_into_a_reader_that_stops_early_ends_quietly():
+    """`beamstop variants | head -1`: a reader gone before the output ends
+    the command as it ends a Unix tool (SIGPIPE), not with a panic."""
+    import os
+    import signal
+    import subprocess
+    from beamstop_tools import engine
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before the first line
+    try:
+        done = subprocess.run([str(engine.binary()), "variants"], stdout=write, stderr=subprocess.PIPE, text=True)
+    finally:
+        os.close(write)
+    assert done.returncode == -signal.SIGPIPE and done.stderr == "", (done.returncode, done.stderr)
+
+
 def test_every_option_takes_its_value_after_an_equals_sign(tmp_path):
     # The linear orbit at A = 0.05 is x = (A / c) sin t: [q; q'] = [0, 0.5] at t0 = 0.
     scene = _scene(tmp_path)

@@ -233,6 +233,14 @@ fn help(command: Option<&str>) -> String {
 }
 
 fn main() -> ExitCode {
+    // Output piped into a reader that stops early (`beamstop variants |
+    // head -1`) ends the command quietly, as a Unix tool does, instead of
+    // a panic on the closed pipe: Rust ignores SIGPIPE by default.
+    // SAFETY: restores the default action of one signal before any thread
+    // starts; no handler is installed.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args: Vec<String> = std::env::args().skip(1).collect();
     // `beamstop help [COMMAND]`, `beamstop [COMMAND] --help` (or -h): the usage, on stdout.
     if args.first().is_some_and(|a| a == "help") {
