@@ -5,13 +5,14 @@
 //! + omega^2 q = f`, VSM12 eq. 13); `coordinate_scale` converts them to
 //! the displacement units the interface shows.
 
+use std::sync::Arc;
+
 use nalgebra::{DMatrix, DVector};
 
 use crate::contact::ModeTransfer;
 use crate::kinds::modal::scene::{ActuatorKind, ContactMethod, TransferDamping, Load, Quantity, Scene, SceneError, Side, StructureSpec, SupportKind, Waveform};
 use crate::contact::{Contact, Geometry, Law, PhaseTerm};
 use crate::solve::lti::{CoupledSystem, LtiError, SystemCache};
-use std::sync::Arc;
 use crate::solve::{ModalForcing, ModalState, Oscillator, C64};
 use crate::structure::{tip_spring, Beam, Chain, Point, Structure, Support, TipSpringCantilever};
 
