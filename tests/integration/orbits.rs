@@ -408,6 +408,47 @@ fn an_orbit_is_reported_over_its_minimal_period() {
     }
 }
 
+/// Where the chain's linear response at mass 3 has the gap's amplitude:
+/// `|X3(omega)| * A = 0.5`, `X = (K - omega^2 M + i omega C)^-1 e1`
+/// (fixed-free chain, unit masses and springs, C = 0.05 K), by bisection.
+fn chain3_grazing(lo: f64, hi: f64) -> f64 {
+    use nalgebra::{Complex, Matrix3, Vector3};
+    let excess = |w: f64| {
+        let k = Matrix3::new(2.0, -1.0, 0.0, -1.0, 2.0, -1.0, 0.0, -1.0, 1.0);
+        let a: Matrix3<Complex<f64>> = k.map(|v| Complex::new(v - 0.0, 0.05 * w * v)) - Matrix3::identity().map(|v: f64| Complex::new(w * w * v, 0.0));
+        let x = a.lu().solve(&Vector3::new(Complex::new(0.3, 0.0), Complex::new(0.0, 0.0), Complex::new(0.0, 0.0))).unwrap();
+        x[2].norm() - 0.5
+    };
+    let (mut a, mut b) = (lo, hi);
+    assert!(excess(a) * excess(b) < 0.0);
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if excess(m) * excess(a) > 0.0 {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
+#[test]
+fn the_chain_reports_both_grazings_and_follows_the_smooth_orbits_between() {
+    // From the impacting branch below omega = 0.6123, whose slow impact
+    // vanishes where the linear orbit grazes, on along the linear orbits
+    // (upwards: the branch turns back at the grazing) to the next grazing.
+    let settings = Continuation::new("A1.omega", 0.58, 1.2);
+    let d = continue_orbits(&chain3(), &settings).unwrap();
+    let grazings: Vec<f64> = d.special.iter().filter(|s| s.kind == SpecialKind::Grazing).map(|s| s.point.param).collect();
+    for exact in [chain3_grazing(0.6, 0.62), chain3_grazing(1.1, 1.2)] {
+        let found = grazings.iter().copied().min_by(|a, b| (a - exact).abs().total_cmp(&(b - exact).abs())).unwrap();
+        assert!((found - exact).abs() < 1e-8 * exact, "grazing at {exact}: nearest reported {found} ({grazings:?})");
+    }
+    // Between them the smooth orbits: no impact, period 1.
+    let smooth = d.branches.iter().flat_map(|b| &b.points).filter(|p| p.param > 0.62 && p.param < 1.13).collect::<Vec<_>>();
+    assert!(smooth.len() >= 10 && smooth.iter().all(|p| p.profile.impacts == 0), "{} points", smooth.len());
+}
+
 #[test]
 fn steps_follow_the_orbits_size_to_the_grazing() {
     // A clamped-clamped beam against a spring stop: its orbit grows eleven

@@ -180,17 +180,19 @@ impl Walker {
                 }
             }
         }
-        let (_, beyond, side) = best.ok_or(why)?;
+        let (_, beyond, mut side) = best.ok_or(why)?;
         // Approached from the impacting side, the grazing is located only
         // as well as Newton finds orbits with a vanishing impact (the
         // map's square root); where the orbit beyond has lost that impact
         // its closest approach closes linearly in the parameter: the
-        // grazing is located on that side.
+        // grazing is located on that side, and the orbit without the
+        // impact goes on away from it, whichever side of the impacting
+        // branch's end that is (the two may lie on one side: the branch
+        // then turns back at the grazing).
         if by_speed && beyond.profile.impacts < grazing.profile.impacts {
-            // A second orbit as far again from the grazing.
-            let far = self.at_parameter(beyond.param + (beyond.param - grazing.param), periods, &beyond.orbit.state);
-            if let Some(located) = far.ok().and_then(|far| self.refine_by_gap(&far, &beyond, periods)) {
+            if let Some((located, away)) = self.locate_from_smooth_side(&grazing, &beyond, periods) {
                 grazing = located;
+                side = away;
             }
         }
         let mut direction = DVector::zeros(tangent.len());
@@ -245,6 +247,30 @@ impl Walker {
 }
 
 impl Walker {
+    /// The grazing of the smooth orbit `near` (found beside the end
+    /// `grazing` of an impacting branch): a second smooth orbit as far
+    /// again on the side where the closest approach opens, then the gap's
+    /// zero by [`Self::refine_by_gap`]. Returns it and the side (+-1 in
+    /// the parameter) on which the smooth orbits lie.
+    fn locate_from_smooth_side(&mut self, grazing: &Point, near: &Point, periods: usize) -> Option<(Point, f64)> {
+        let impacts = near.profile.impacts;
+        let gap = |p: &Point| p.profile.closest.filter(|_| p.profile.impacts == impacts).map(|c| c.gap).filter(|g| *g >= 0.0);
+        let g_near = gap(near)?;
+        let step = (near.param - grazing.param).abs();
+        let outward = (near.param - grazing.param).signum();
+        for away in [outward, -outward] {
+            let p = near.param + away * step;
+            if !(self.range.0..=self.range.1).contains(&p) {
+                continue;
+            }
+            let Ok(far) = self.at_parameter(p, periods, &near.orbit.state) else { continue };
+            if gap(&far).is_some_and(|g| g > g_near) {
+                return self.refine_by_gap(&far, near, periods).map(|located| (located, away));
+            }
+        }
+        None
+    }
+
     /// The grazing orbit where the closest approach to a stop of the
     /// orbits through `far` and then `near` (the same impacts) closes: the
     /// secant method on that gap, linear in the parameter, each orbit by

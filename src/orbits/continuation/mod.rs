@@ -237,7 +237,7 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
     if lo >= hi || !lo.is_finite() || !hi.is_finite() {
         return Err(format!("--param {}={}:{}: the range must have two different finite ends", settings.param, settings.from, settings.to));
     }
-    let starts = if settings.starts.is_empty() { vec![settings.from] } else { settings.starts.clone() };
+    let mut starts = if settings.starts.is_empty() { vec![settings.from] } else { settings.starts.clone() };
     if let Some(start) = starts.iter().find(|s| !(lo..=hi).contains(*s)) {
         return Err(format!("the start {start} lies outside the range {lo} .. {hi}"));
     }
@@ -262,10 +262,24 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
     // Each start's branch both ways, and those its grazings restart; then
     // the branches of twice the period at each period doubling.
     let mut doublings: Vec<Point> = Vec::new();
-    for (k, &start) in starts.iter().enumerate() {
-        let first = match walker.first_orbit(start, settings, k == 0) {
+    let mut k = 0;
+    loop {
+        if k == starts.len() {
+            // Without starts given, the far end too where no branch from
+            // `from` reached it (one can end at a grazing with no orbit
+            // found beyond it, or where Newton gives out).
+            let reached = diagram.branches.iter().any(|b| b.points.iter().any(|p| p.param == settings.to));
+            if settings.starts.is_empty() && starts.len() == 1 && !reached {
+                starts.push(settings.to);
+            } else {
+                break;
+            }
+        }
+        let start = starts[k];
+        k += 1;
+        let first = match walker.first_orbit(start, settings, k == 1) {
             Ok(first) => first,
-            Err(e) if k > 0 => {
+            Err(e) if k > 1 => {
                 diagram.notes.push(format!("the start at {} = {start}: {e}", settings.param));
                 continue;
             }

@@ -127,6 +127,7 @@ impl Walker {
                             let (at, why) = self.end_at_grazing(&points, periods, why);
                             if let Some(at) = at {
                                 observer.point(branch, &at);
+                                special.push(ending_grazing(branch, &at));
                                 points.push(at);
                             }
                             end(why, points.last().expect("a point"), special);
@@ -184,6 +185,7 @@ impl Walker {
                 let (at, why) = self.end_at_grazing(&points, periods, why);
                 if let Some(at) = at {
                     observer.point(branch, &at);
+                    special.push(ending_grazing(branch, &at));
                     points.push(at);
                 }
                 end(why, points.last().expect("a point"), special);
@@ -280,4 +282,12 @@ impl Walker {
         t.rows_mut(0, n).copy_from(&scaled);
         t.normalize()
     }
+}
+
+/// The grazing a branch ends at ([`Walker::end_at_grazing`]): a GR of its
+/// own (the EP after it says why the branch stops there).
+fn ending_grazing(branch: usize, at: &Point) -> Special {
+    let gap = at.profile.closest.map_or(f64::NAN, |c| c.gap) + 0.0;
+    let note = format!("closest smooth approach {gap:.3e}; no orbit beyond it found: the branch ends here");
+    Special { kind: SpecialKind::Grazing, branch, point: at.clone(), note }
 }
