@@ -286,28 +286,7 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
             Err(e) => return Err(e),
         };
         walker.restarts.insert(0, first);
-        while let Some(first) = walker.restarts.pop() {
-            if diagram.branches.len() >= settings.max_branches || diagram.branches.iter().any(|b| on_points(&walker, &b.points, &first)) {
-                continue;
-            }
-            let index = diagram.branches.len();
-            let periods = first.periods();
-            // Each branch scales the state by its largest orbit so far, from its first.
-            walker.weight_x = 1.0 / first.size();
-            let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
-            increasing[first.orbit.state.len()] = 1.0;
-            let tangent = walker.tangent(&first, periods, &increasing)?;
-            observer.branch_started(index, periods, &first);
-            let mut others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
-            let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, &mut doublings, observer)?;
-            others.push(&forward);
-            let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, &mut doublings, observer)?;
-            let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
-            points.append(&mut forward);
-            let branch = Branch { index, periods, points };
-            observer.branch_ended(&branch, &branch_special(&diagram.special, index));
-            diagram.branches.push(branch);
-        }
+        follow_restarts(&mut walker, &mut diagram, settings.max_branches, &mut doublings, observer)?;
     }
     let mut next = 0;
     while next < doublings.len() && diagram.branches.len() < settings.max_branches {
@@ -328,6 +307,8 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
                 let branch = Branch { index, periods, points };
                 observer.branch_ended(&branch, &branch_special(&diagram.special, index));
                 diagram.branches.push(branch);
+                // The grazings it crossed without a nearby orbit beyond.
+                follow_restarts(&mut walker, &mut diagram, settings.max_branches, &mut doublings, observer)?;
             }
             Err(e) => diagram.notes.push(format!("the period doubling at {} = {}: no switch onto the doubled branch: {e}", settings.param, at.param)),
         }
@@ -337,6 +318,37 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
     }
     diagram.evaluations = walker.evaluations;
     Ok(diagram)
+}
+
+/// Follows, both ways, each orbit waiting in `walker.restarts` (a start,
+/// or the far orbit of a grazing without a nearby one beyond it) that no
+/// branch passes through, up to `max_branches` branches in all (the
+/// rest stay waiting: the diagram's note says so).
+fn follow_restarts(walker: &mut Walker, diagram: &mut Diagram, max_branches: usize, doublings: &mut Vec<Point>, observer: &mut dyn Observer) -> Result<(), String> {
+    while diagram.branches.len() < max_branches {
+        let Some(first) = walker.restarts.pop() else { break };
+        if diagram.branches.iter().any(|b| on_points(walker, &b.points, &first)) {
+            continue;
+        }
+        let index = diagram.branches.len();
+        let periods = first.periods();
+        // Each branch scales the state by its largest orbit so far, from its first.
+        walker.weight_x = 1.0 / first.size();
+        let mut increasing = DVector::zeros(first.orbit.state.len() + 1);
+        increasing[first.orbit.state.len()] = 1.0;
+        let tangent = walker.tangent(&first, periods, &increasing)?;
+        observer.branch_started(index, periods, &first);
+        let mut others: Vec<&[Point]> = diagram.branches.iter().map(|b| b.points.as_slice()).collect();
+        let mut forward = walker.walk(index, periods, first.clone(), tangent.clone(), false, &others, &mut diagram.special, doublings, observer)?;
+        others.push(&forward);
+        let backward = walker.walk(index, periods, first, -tangent, false, &others, &mut diagram.special, doublings, observer)?;
+        let mut points: Vec<Point> = backward.into_iter().skip(1).rev().collect();
+        points.append(&mut forward);
+        let branch = Branch { index, periods, points };
+        observer.branch_ended(&branch, &branch_special(&diagram.special, index));
+        diagram.branches.push(branch);
+    }
+    Ok(())
 }
 
 /// The special points of branch `index`.
