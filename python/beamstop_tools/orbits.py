@@ -407,16 +407,13 @@ def _workers(client) -> int:
     return worker_count(client)
 
 
-def sweep_for(scene: str | Path, param: str, frm: str, to: str, points: int, sets: list[str], ties: list[str], out: Path,
-              client, discard: float = 100, record: int = 50) -> pa.Table:
+def sweep_spec(scene: str | Path, param: str, frm: str, to: str, points: int, sets: list[str], ties: list[str],
+               discard: float = 100, record: int = 50):
     """The brute-force sweep of the same range (`scripts/sweep` on the
-    scene's FMU in target/fmu/, on the Dask `client`): `points` values, the
-    same --set values, each --tie as a --set expression. Returns its table
-    (also in out/points.parquet)."""
+    scene's FMU in target/fmu/): `points` values, the same --set values,
+    each --tie as a --set expression; checked before any worker starts."""
     from .sweep import spec as spec_mod
-    from .sweep.engine import run_sweep
     from .sweep.fmu import read_fmu
-    from .sweep.store import read_points
 
     name = json.loads(Path(scene).read_text()).get("name")
     fmu = ROOT / "target" / "fmu" / f"{name}.fmu"
@@ -424,7 +421,15 @@ def sweep_for(scene: str | Path, param: str, frm: str, to: str, points: int, set
         raise OrbitsError(f"--sweep-points: {fmu} is missing: package the scene first "
                           f"(target/release/beamstop package {scene}), or give a sweep with --sweep DIR")
     set_exprs = list(sets) + [t.replace("^", "**") for t in ties]
-    spec = spec_mod.build(read_fmu(fmu), [f"{param}={frm}:{to}:{points}"], set_exprs, discard, record)
+    return spec_mod.build(read_fmu(fmu), [f"{param}={frm}:{to}:{points}"], set_exprs, discard, record)
+
+
+def sweep_for(spec, out: Path, client) -> pa.Table:
+    """Runs the sweep `spec` (sweep_spec) on the Dask `client`. Returns its
+    table (also in out/points.parquet)."""
+    from .sweep.engine import run_sweep
+    from .sweep.store import read_points
+
     run_sweep(spec, out, client, progress=sys.stderr.isatty(), restart=True, command="scripts/orbits --sweep-points")
     return read_points(out / "points.parquet")[0]
 
@@ -485,9 +490,10 @@ def main(argv: list[str] | None = None) -> int:
         common = dict(out=a.out, start=[value(s, "--start") for s in a.start] or None, sets=sets, ties=a.tie,
                       points=a.points, max_period=a.max_period)
         lo, hi = value(frm, "--param FROM"), value(to, "--param TO")
+        spec = sweep_spec(a.scene, name, frm, to, a.sweep_points, a.set, a.tie) if a.sweep_points else None
         with (dask_client(a.scheduler, a.workers) if a.cover or a.sweep_points else nullcontext()) as client:
-            if a.sweep_points:
-                sweep = sweep_for(a.scene, name, frm, to, a.sweep_points, a.set, a.tie, Path(a.out) / "sweep", client)
+            if spec is not None:
+                sweep = sweep_for(spec, Path(a.out) / "sweep", client)
             else:
                 sweep = pq.read_table(Path(a.sweep) / "points.parquet") if a.sweep else None
             if a.cover:
