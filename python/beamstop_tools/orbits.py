@@ -461,10 +461,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the brute-force sweep of the same range first (N values; its FMU from target/fmu/), "
                          "to DIR/sweep, and draw the branches over it")
     ap.add_argument("--cover", action="store_true",
-                    help="with --sweep: every period-1 and period-2 sweep point a start too; the range in "
-                         "--pieces pieces continued apart on Dask workers and merged")
+                    help="with --sweep: start again from every period-1 or period-2 sweep point on no branch, "
+                         "in --pieces runs over pieces of the range on Dask, merged")
     ap.add_argument("--pieces", type=int, default=16, metavar="K",
-                    help="--cover's pieces (each as many of the sweep's periodic points; default 16)")
+                    help="--cover's runs, each over a piece of the range with as many restarts "
+                         "(default 16; 1: the single run of before)")
     ap.add_argument("--scheduler", metavar="ADDRESS", help="for --cover and --sweep-points: a running dask scheduler "
                     "(tcp://host:8786); default: a local cluster")
     ap.add_argument("--workers", type=int, metavar="N", help="local worker processes (default: one per core)")
