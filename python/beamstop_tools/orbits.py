@@ -22,7 +22,9 @@ import argparse
 import csv
 import json
 import math
+import subprocess
 import sys
+import threading
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass
@@ -77,9 +79,13 @@ def read_csv(path: Path) -> pa.Table:
 def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out: str | Path,
                     start: float | list[float] | None = None, sets: dict[str, float] | None = None,
                     ties: list[str] | None = None, points: int = 200, max_branches: int = 8,
-                    transient: int = 200, max_period: int = 8, phase: float = 0.0, exe: str | Path | None = None) -> Orbits:
+                    transient: int = 200, max_period: int = 8, phase: float = 0.0, exe: str | Path | None = None,
+                    progress: str | None = None) -> Orbits:
     """Runs `beamstop orbits` (`exe`, default engine.binary()) and returns its
-    tables (also written as Parquet to `out`)."""
+    tables (also written as Parquet to `out`). `progress`: the command's
+    progress lines (stderr) go on to this process's stderr as they come,
+    each after that prefix ("" for none); None: kept quiet (in the error
+    if the command fails, as always)."""
     exe = Path(exe) if exe else engine.binary()
     if not exe.exists():
         raise OrbitsError(f"{exe} is missing: run scripts/orbits (or cargo build --release) first")
@@ -94,7 +100,7 @@ def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out
     for tie in ties or []:
         args += ["--tie", tie]
     began = time.perf_counter()
-    done = engine.beamstop(args, exe=exe)
+    done = engine.beamstop(args, exe=exe) if progress is None else _streamed([str(exe), *args], progress)
     seconds = time.perf_counter() - began
     if done.returncode != 0:
         raise OrbitsError(done.stderr.strip() or f"beamstop orbits failed ({done.returncode})")
@@ -102,6 +108,27 @@ def continue_orbits(scene: str | Path, param: str, frm: float, to: float, *, out
     pq.write_table(branch, out / "branch.parquet")
     pq.write_table(special, out / "special.parquet")
     return Orbits(branch, special, param, seconds, done.stdout)
+
+
+def _streamed(cmd: list[str], prefix: str) -> subprocess.CompletedProcess:
+    """`cmd` run in the root, its stdout captured, each line of its stderr
+    written to sys.stderr at once after `prefix` (and kept, for the error
+    message)."""
+    with subprocess.Popen(cmd, cwd=engine.root(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as p:
+        kept: list[str] = []
+
+        def forward():
+            for line in p.stderr:
+                kept.append(line)
+                sys.stderr.write(prefix + line)
+                sys.stderr.flush()
+
+        reader = threading.Thread(target=forward, daemon=True)
+        reader.start()
+        stdout = p.stdout.read()
+        p.wait()
+        reader.join()
+    return subprocess.CompletedProcess(cmd, p.returncode, stdout, "".join(kept))
 
 
 def _segments(rows: list[dict]):
@@ -504,7 +531,7 @@ def main(argv: list[str] | None = None) -> int:
                                progress=sys.stderr.isatty(), **common)
             else:
                 orbits = continue_orbits(a.scene, name, lo, hi, transient=a.transient, max_branches=a.max_branches or 8,
-                                         **common)
+                                         progress="", **common)
         plot(orbits, Path(a.out) / "orbits.png", sweep, title=f"{Path(a.scene).stem}: {a.param}")
     except (OrbitsError, SweepError) as err:
         print(f"scripts/orbits: {err}", file=sys.stderr)
