@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import subprocess
 import sys
 import threading
@@ -42,6 +41,12 @@ LIST_COLUMNS = {"multipliers_re", "multipliers_im", "section", "state"}
 BOOL_COLUMNS = {"stable"}
 INT_COLUMNS = {"branch", "n_unstable", "sticks", "periods"}
 TEXT_COLUMNS = {"type", "note"}
+
+
+#: --cover's runs by default (--pieces): one, the single run. More give the
+#: same diagram (and some of it twice) but cost more wall time than one on
+#: the Fig. 9 example even on two workers (docs/orbits.md "--cover on Dask").
+PIECES = 1
 
 
 class OrbitsError(Exception):
@@ -265,40 +270,93 @@ def on_branches(orbits: Orbits, sweep: pa.Table, periods=(1, 2), tolerance: floa
     return len(found) - len(missed), len(found), missed
 
 
-def merge(runs: list[Orbits], tolerance: float = 1e-3, inner: list[float] = ()) -> tuple[Orbits, int]:
+class _Branches:
+    """Branches' rows for the continuation's own question "does this orbit
+    lie on a branch found before" (`on_points` in
+    src/orbits/continuation/mod.rs): consecutive rows of a branch as pairs,
+    indexed by period and parameter interval."""
+
+    def __init__(self, param: str):
+        import numpy as np
+
+        self.param = param
+        self.lo, self.hi = np.empty(0), np.empty(0)
+        self.periods = np.empty(0, dtype=np.int64)
+        self.xa, self.xb = np.empty(0), np.empty(0)
+        self.a, self.b = np.empty((0, 0)), np.empty((0, 0))
+
+    def add(self, rows: list[dict]) -> None:
+        """One branch's rows, in its order."""
+        import numpy as np
+
+        if len(rows) < 2:
+            return
+        x = np.array([r[self.param] for r in rows], dtype=float)
+        states = np.array([r["state"] for r in rows], dtype=float)
+        if self.a.size and states.shape[1] != self.a.shape[1]:
+            raise OrbitsError("merge: the runs' states differ in length")
+        self.lo = np.concatenate([self.lo, np.minimum(x[:-1], x[1:])])
+        self.hi = np.concatenate([self.hi, np.maximum(x[:-1], x[1:])])
+        self.periods = np.concatenate([self.periods, np.array([r["periods"] for r in rows[:-1]], dtype=np.int64)])
+        self.xa, self.xb = np.concatenate([self.xa, x[:-1]]), np.concatenate([self.xb, x[1:]])
+        self.a = states[:-1] if not self.a.size else np.concatenate([self.a, states[:-1]])
+        self.b = states[1:] if not self.b.size else np.concatenate([self.b, states[1:]])
+
+    def holds(self, row: dict, scale: float, tolerance: float = 1e-3) -> bool:
+        """The same period, and the row's state within `tolerance` * `scale`
+        (2-norm) of the state interpolated linearly, at its parameter value,
+        between two consecutive rows of a branch around it."""
+        import numpy as np
+
+        p = row[self.param]
+        k = np.flatnonzero((self.periods == row["periods"]) & (self.lo <= p) & (p <= self.hi))
+        if not k.size:
+            return False
+        xa, xb = self.xa[k], self.xb[k]
+        span = xb - xa
+        w = np.clip(np.divide(p - xa, span, out=np.zeros_like(span), where=span != 0), 0.0, 1.0)[:, None]
+        between = self.a[k] * (1 - w) + self.b[k] * w
+        return bool((np.linalg.norm(between - np.asarray(row["state"]), axis=1) < tolerance * scale).any())
+
+
+def _size(rows: list[dict]) -> float:
+    """A branch's scale as the continuation's walk ends it: its largest
+    orbit's size (the `norm` column, or the state's norm where that is 0)."""
+    import numpy as np
+
+    return max((r["norm"] or float(np.linalg.norm(r["state"])) for r in rows), default=1.0) or 1e-300
+
+
+def merge(runs: list[Orbits], tolerance: float = 1e-3) -> tuple[Orbits, int]:
     """One diagram from continuations run apart, in the order given: each
     run's branches in their own order, numbered on, except a branch every
-    row of which lies on a branch an earlier run kept (same period and
-    impacts per period, its section within `tolerance` of the largest
-    section sample of all runs, as on_branches asks of a sweep's point; a
-    run's own branches are as it found them). Returns the diagram
-    (its special points those of the branches kept, without the ends at the
-    parameter values `inner`, where runs over adjacent ranges meet; seconds
-    and summary left to the caller) and how many branches were dropped."""
+    row of which lies on a branch an earlier run kept (a run's own branches
+    are as it found them; `_Branches.holds`, the continuation's own test
+    whether a start lies on a branch: the same period, the state within
+    `tolerance` of the state interpolated between two rows around it,
+    scaled by the branch's largest orbit). The special points follow their
+    branches. Returns the diagram (seconds and summary left to the caller)
+    and how many branches were dropped."""
     param = runs[0].param
-    every = [[] if run.branch is None else run.branch.to_pylist() for run in runs]
-    limit = tolerance * _scale([r for rows in every for r in rows])
-    earlier = _Sections(param)
+    earlier = _Branches(param)
     branch_parts, special_parts, dropped = [], [], 0
-    for run, rows in zip(runs, every):
+    for run in runs:
         if run.branch is None:
             continue
-        special = run.special.to_pylist()
-        added = []
+        rows, special = run.branch.to_pylist(), run.special.to_pylist()
+        kept = []
         for b in sorted({r["branch"] for r in rows}):
             mine = [r for r in rows if r["branch"] == b]
-            if earlier.rows and all(earlier.covers(r[param], r["periods"], r["impacts_per_period"], r["section"], limit)
-                                    for r in mine):
+            scale = _size(mine)
+            if all(earlier.holds(r, scale, tolerance) for r in mine):
                 dropped += 1
                 continue
             new = len(branch_parts)
-            mine = [dict(r, branch=new) for r in mine]
-            added += mine
-            branch_parts.append(mine)
-            special_parts += [dict(s, branch=new) for s in special if s["branch"] == b
-                              and not (s["type"] == "EP" and s["note"].startswith("the end of the range")
-                                       and any(abs(s[param] - x) <= 1e-12 * max(1.0, abs(x)) for x in inner))]
-        earlier.add(added)
+            branch_parts.append([dict(r, branch=new) for r in mine])
+            special_parts += [dict(s, branch=new) for s in special if s["branch"] == b]
+            kept.append(mine)
+        for mine in kept:
+            earlier.add(mine)
     flat = [r for part in branch_parts for r in part]
     tables = next(run for run in runs if run.branch is not None)
     branch = pa.Table.from_pylist(flat, schema=tables.branch.schema)
@@ -338,94 +396,91 @@ def _continue(job: dict) -> Orbits:
             job["start"] = starts[1:]
 
 
-def pieces(missed: list[float], lo: float, hi: float, starts: list[float], count: int = 16):
-    """cover's division of lo .. hi: `count` pieces (fewer if there are
-    fewer `missed` points), each with as many of them as the others, their
-    bounds halfway between two of them. Returns (from, to, starts) per
-    piece: the given `starts` within it, then its missed points in order."""
+def pieces(missed: list[float], starts: list[float], count: int = PIECES) -> list[list[float]]:
+    """cover's division of its restarts: `count` runs (fewer if there are
+    fewer `missed` points), each with as many of the missed points as the
+    others, in the parameter's order. Returns each run's starts: `starts`
+    (the first run's), then its share of the missed points in order."""
     missed = sorted(missed)
     n = max(1, min(count, len(missed)))
-    groups = [missed[i * len(missed) // n:(i + 1) * len(missed) // n] for i in range(n)]
-    bounds = [lo] + [(g[-1] + h[0]) / 2 for g, h in zip(groups, groups[1:])] + [hi]
-    out = []
-    for k, group in enumerate(groups):
-        a, b = bounds[k], bounds[k + 1]
-        mine = [s for s in starts if a <= s <= b and (k == 0 or s > a)]
-        out.append((a, b, mine + [p for p in group if p not in mine]))
-    return out
+    shares = [missed[i * len(missed) // n:(i + 1) * len(missed) // n] for i in range(n)]
+    return [list(starts) + [p for p in share if p not in starts] for share in shares]
 
 
 def cover(scene, param: str, frm: float, to: float, sweep: pa.Table, *, out: str | Path, start=None,
-          transient: int = 100, max_branches: int = 200, pieces_count: int = 16, client=None, progress: bool = False,
+          transient: int = 100, max_branches: int = 200, pieces_count: int = PIECES, client=None, progress: bool = False,
           **kw) -> Orbits:
     """Continues from `start` (default `frm`; at most 8 branches), then
-    again with every period-1 or period-2 point of `sweep` not yet on a
-    branch as a start of its own (each from a transient of `transient`
-    periods, the sweep's own discard, so that it settles where the sweep
-    did; a start on a branch its run found before starts none; at most
-    `max_branches` branches per run). Those restarts are independent runs
-    over `pieces_count` pieces of the range (`pieces`: as many starts each,
-    `start` in its own), their longest step in the parameter the whole
-    range's (at least 20 points), on the Dask `client`'s workers (None: one
-    after the other here). The tables are merged in a fixed order whatever
-    order the runs end in (`merge`: the first run, then the pieces in the
-    parameter's order; the ends at the pieces' inner bounds dropped). One
-    piece, whose run has the first's start and finds its branches again,
-    is that run alone: the tables of cover before it ran on Dask.
-    DIR/runs/first and DIR/runs/K hold the first run's and piece K's CSVs
-    (rows written as each branch ends); DIR/branch.parquet and
-    DIR/special.parquet the merged tables. Returns the merged diagram (the
-    first run's, if it covers the sweep already); `seconds` is the wall
-    time of both stages."""
-    from tqdm import tqdm
-
+    again from `start` and every period-1 or period-2 point of `sweep` not
+    yet on a branch as a start of its own (each from a transient of
+    `transient` periods, the sweep's own discard, so that it settles where
+    the sweep did; a start on a branch its run found before starts none;
+    at most `max_branches` branches per run). Those restarts are shared out
+    among `pieces_count` independent runs (`pieces`: as many missed points
+    each, in the parameter's order), each over the whole range with the
+    whole range's steps and `start` first, on the Dask `client`'s workers
+    (None: one after the other here). The tables are merged in a fixed
+    order whatever order the runs end in (`merge`: the runs in the order of
+    their shares, a branch lying on one an earlier run kept dropped), so
+    they depend on `pieces_count`, never on the workers. One piece is the
+    run of before alone. `progress`: each run's progress lines on stderr,
+    after "cover first:" or "cover K/N:". DIR/runs/first and DIR/runs/K
+    hold the first run's and run K's CSVs (rows written as each branch
+    ends); DIR/branch.parquet and DIR/special.parquet the merged tables.
+    Returns the merged diagram (the first run's, if it covers the sweep
+    already); `seconds` is the wall time of both stages."""
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     lo, hi = min(frm, to), max(frm, to)
     starts = [] if start is None else [start] if isinstance(start, (int, float)) else list(start)
-    points = kw.pop("points", 200)
-    base = dict(scene=str(Path(scene).resolve()), param=param, transient=transient,
+    base = dict(scene=str(Path(scene).resolve()), param=param, frm=frm, to=to, transient=transient,
                 exe=str(engine.binary().resolve()), **kw)
     began = time.perf_counter()
-    first = continue_orbits(frm=frm, to=to, out=out / "runs" / "first", start=starts or None, points=points, **base)
+    first = continue_orbits(out=out / "runs" / "first", start=starts or None, progress="cover first: " if progress else None,
+                            **base)
     missed = [p for p in on_branches(first, sweep)[2] if lo <= p <= hi]
     if not missed:
         first.seconds = time.perf_counter() - began
         pq.write_table(first.branch, out / "branch.parquet")
         pq.write_table(first.special, out / "special.parquet")
         return first
-    parts = pieces(missed, lo, hi, starts or [frm], pieces_count)
-    # the longest step in the parameter as the whole range's: `points` scaled by the piece's width
-    jobs = [dict(base, frm=a, to=b, start=s, max_branches=max_branches, out=str(out / "runs" / f"{k:03d}"),
-                 points=points if len(parts) == 1 else max(20, math.ceil(points * (b - a) / (hi - lo))))
-            for k, (a, b, s) in enumerate(parts)]
-    with tqdm(total=len(jobs), unit="piece", disable=not progress, file=sys.stderr,
-              desc=f"cover: {len(missed)} starts") as bar:
-        if client is None:
-            runs = []
-            for job in jobs:
-                runs.append(_continue(job))
-                bar.update(1)
-        else:
-            from distributed import as_completed
+    shares = pieces(missed, starts or [frm], pieces_count)
+    n = len(shares)
+    jobs = [dict(base, start=s, max_branches=max_branches, out=str(out / "runs" / f"{k:03d}"),
+                 progress=f"cover {k + 1}/{n}: " if progress else None) for k, s in enumerate(shares)]
+    done = 0
 
-            futures = [client.submit(_continue, job, pure=False) for job in jobs]
-            for _ in as_completed(futures):
-                bar.update(1)
-            runs = [f.result() for f in futures]  # the pieces' order, not the order they ended in
-    # One piece holds the first run's start and its branches: it is the one run of before, alone.
-    merged, dropped = merge(([first] if len(runs) > 1 else []) + runs, inner=[a for a, _, _ in parts[1:]])
+    def ended(k: int, run: Orbits) -> None:
+        nonlocal done
+        done += 1
+        if progress:
+            print(f"cover: run {k + 1}/{n} done ({done} of {n}): "
+                  f"{0 if run.branch is None else len(set(run.branch.column('branch').to_pylist()))} branches, "
+                  f"{run.seconds:.1f} s", file=sys.stderr, flush=True)
+
+    if client is None:
+        runs = []
+        for k, job in enumerate(jobs):
+            runs.append(_continue(job))
+            ended(k, runs[-1])
+    else:
+        from distributed import as_completed
+
+        futures = [client.submit(_continue, job, pure=False) for job in jobs]
+        for future in as_completed(futures):
+            ended(futures.index(future), future.result())
+        runs = [f.result() for f in futures]  # the shares' order, not the order they ended in
+    merged, dropped = merge(runs)
     merged.seconds = time.perf_counter() - began
     pq.write_table(merged.branch, out / "branch.parquet")
     pq.write_table(merged.special, out / "special.parquet")
-    notes = [f"  note (piece {k}, {param} = {a!r} .. {b!r}): {line.strip().removeprefix('note: ')}"
-             for k, ((a, b, _), run) in enumerate(zip(parts, runs)) for line in run.summary.splitlines()
-             if line.strip().startswith("note:")]
-    merged.summary = (describe(merged) + "".join(n + "\n" for n in notes)
-                      + f"cover: the first run and {len(missed)} starts in {len(runs)} piece(s) on "
+    notes = [f"  note (run {k + 1}/{n}): {line.strip().removeprefix('note: ')}"
+             for k, run in enumerate(runs) for line in run.summary.splitlines() if line.strip().startswith("note:")]
+    merged.summary = (describe(merged) + "".join(line + "\n" for line in notes)
+                      + f"cover: the first run and {len(missed)} starts in {n} run(s) on "
                       + (f"{_workers(client)} Dask worker(s)" if client is not None else "this process")
                       + f": {len(merged.branch)} points on {len(set(merged.branch.column('branch').to_pylist()))} branches"
-                      + f" ({dropped} repeating one kept before dropped) in {merged.seconds:.1f} s; {out}\n")
+                      + f" ({dropped} lying on one kept before dropped) in {merged.seconds:.1f} s; {out}\n")
     return merged
 
 
@@ -480,7 +535,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], help="NAME=VALUE (an expression of numbers, pi, e, sqrt ...)")
     ap.add_argument("--tie", action="append", default=[], help="NAME=SCALE*PARAM^POWER: follows the continued parameter")
     ap.add_argument("--points", type=int, default=200, help="the longest step is 1/POINTS of the scaled arclength")
-    ap.add_argument("--max-branches", type=int, help="8; with --cover, per piece: 200")
+    ap.add_argument("--max-branches", type=int, help="8; with --cover, per run: 200")
     ap.add_argument("--transient", type=int, default=200, help="forcing periods simulated before the first orbit")
     ap.add_argument("--max-period", type=int, default=8)
     ap.add_argument("--sweep", help="a scripts/sweep output directory of the same parameter, drawn under the branches")
@@ -488,12 +543,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="run the brute-force sweep of the same range first (N values; its FMU from target/fmu/), "
                          "to DIR/sweep, and draw the branches over it")
     ap.add_argument("--cover", action="store_true",
-                    help="with --sweep: start again from every period-1 or period-2 sweep point on no branch, "
-                         "in --pieces runs over pieces of the range on Dask, merged")
-    ap.add_argument("--pieces", type=int, default=16, metavar="K",
-                    help="--cover's runs, each over a piece of the range with as many restarts "
-                         "(default 16; 1: the single run of before)")
-    ap.add_argument("--scheduler", metavar="ADDRESS", help="for --cover and --sweep-points: a running dask scheduler "
+                    help="with --sweep: start again from every period-1 or period-2 sweep point on no branch "
+                         "(in --pieces runs on Dask, merged)")
+    ap.add_argument("--pieces", type=int, default=PIECES, metavar="K",
+                    help=f"--cover's restarts shared out among K runs over the whole range, merged "
+                         f"(default {PIECES}; 1: the single run, no cluster; more took longer on 2 cores: docs/orbits.md)")
+    ap.add_argument("--scheduler", metavar="ADDRESS", help="for --cover --pieces K and --sweep-points: a running dask scheduler "
                     "(tcp://host:8786); default: a local cluster")
     ap.add_argument("--workers", type=int, metavar="N", help="local worker processes (default: one per core)")
     ap.add_argument("--out", required=True)
@@ -519,7 +574,9 @@ def main(argv: list[str] | None = None) -> int:
                       points=a.points, max_period=a.max_period)
         lo, hi = value(frm, "--param FROM"), value(to, "--param TO")
         spec = sweep_spec(a.scene, name, frm, to, a.sweep_points, a.set, a.tie) if a.sweep_points else None
-        with (dask_client(a.scheduler, a.workers) if a.cover or a.sweep_points else nullcontext()) as client:
+        # one --cover run needs no cluster: it runs here, its progress on this stderr
+        with (dask_client(a.scheduler, a.workers) if (a.cover and a.pieces > 1) or a.sweep_points
+              else nullcontext()) as client:
             if spec is not None:
                 sweep = sweep_for(spec, Path(a.out) / "sweep", client)
             else:
@@ -528,7 +585,7 @@ def main(argv: list[str] | None = None) -> int:
                 discard = json.loads((sweep.schema.metadata or {}).get(b"beamstop.sweep", b"{}")).get("settings", {}).get("discard_periods")
                 orbits = cover(a.scene, name, lo, hi, sweep, transient=int(discard or a.transient),
                                max_branches=a.max_branches or 200, pieces_count=a.pieces, client=client,
-                               progress=sys.stderr.isatty(), **common)
+                               progress=True, **common)
             else:
                 orbits = continue_orbits(a.scene, name, lo, hi, transient=a.transient, max_branches=a.max_branches or 8,
                                          progress="", **common)

@@ -256,12 +256,14 @@ def covered(tmp_path):
 
 
 AMPLITUDES = [0.22, 0.24, 0.26, 0.28]
-COVER = dict(start=0.3, points=10, transient=20, max_branches=8, max_period=2)
+COVER = dict(start=0.3, points=8, transient=10, max_branches=8, max_period=2)
 
 
 def test_cover_on_dask_merges_as_one_process_does(covered, tmp_path):
-    """cover's restarts in pieces on a Dask cluster give the tables of the
-    same pieces run one after the other, whatever order they end in."""
+    """cover's restarts shared out among runs on a Dask cluster give the
+    tables of the same runs one after the other, whatever order they end
+    in; each run goes over the whole range, from the start first, and the
+    merge drops what a later run found again."""
     from distributed import Client
 
     scene, sweep = covered
@@ -272,21 +274,26 @@ def test_cover_on_dask_merges_as_one_process_does(covered, tmp_path):
     assert dask.branch.equals(serial.branch) and dask.special.equals(serial.special)
     assert pq.read_table(tmp_path / "dask" / "branch.parquet").equals(serial.branch)
     assert sorted(p.name for p in (tmp_path / "dask" / "runs").iterdir()) == ["000", "001", "first"]
-    # The pieces found orbits of their own; their inner bound is no branch's end.
+    assert orbits.pieces(AMPLITUDES, [0.3], 2) == [[0.3, 0.22, 0.24], [0.3, 0.26, 0.28]]
+    # Both runs found the start's branches; the second's are dropped, its own kept.
+    runs = [orbits.read_csv(tmp_path / "dask" / "runs" / k / "branch.csv") for k in ("000", "001")]
     first = orbits.read_csv(tmp_path / "dask" / "runs" / "first" / "branch.csv")
-    assert len(set(dask.branch.column("branch").to_pylist())) > len(set(first.column("branch").to_pylist()))
-    (_, bound, _), _ = orbits.pieces(AMPLITUDES, 0.21, 0.3, [0.3], 2)
-    assert bound == (0.24 + 0.26) / 2 and any(r["A.amplitude"] == bound for r in dask.branch.to_pylist())
-    assert not any(s["type"] == "EP" and s["A.amplitude"] == bound for s in dask.special.to_pylist())
-    assert "on 2 Dask worker(s)" in dask.summary
+    assert all(min(r.column("A.amplitude").to_pylist()) < 0.22 for r in runs)  # the whole range, not a piece
+    count = lambda t: len(set(t.column("branch").to_pylist()))  # noqa: E731
+    assert count(dask.branch) > count(first) and count(dask.branch) < count(runs[0]) + count(runs[1])
+    assert "2 run(s) on 2 Dask worker(s)" in dask.summary and "lying on one kept before dropped" in dask.summary
 
 
-def test_cover_in_one_piece_is_the_one_run_of_before(covered, tmp_path):
+def test_cover_in_one_piece_is_the_one_run_of_before(covered, tmp_path, capfd):
     """--pieces 1: the run from the start and every missed point, the tables
-    of cover before it ran on Dask."""
+    of cover before it ran on Dask; beamstop's progress lines on stderr."""
     scene, sweep = covered
-    one = orbits.cover(scene, "A.amplitude", 0.21, 0.3, sweep, out=tmp_path / "one", pieces_count=1, **COVER)
-    before = orbits.continue_orbits(scene, "A.amplitude", 0.21, 0.3, start=[0.3] + AMPLITUDES, points=10,
-                                    transient=20, max_branches=8, max_period=2, out=tmp_path / "before")
+    one = orbits.cover(scene, "A.amplitude", 0.21, 0.3, sweep, out=tmp_path / "one", pieces_count=1, progress=True,
+                       **COVER)
+    err = capfd.readouterr().err
+    assert "cover first: orbits: branch 0 (period 1 T) starts at A.amplitude = 0.3" in err
+    assert "cover 1/1: orbits: branch 0 (period 1 T) starts" in err and "cover: run 1/1 done" in err
+    before = orbits.continue_orbits(scene, "A.amplitude", 0.21, 0.3, start=[0.3] + AMPLITUDES, points=8,
+                                    transient=10, max_branches=8, max_period=2, out=tmp_path / "before")
     assert one.branch.equals(before.branch) and one.special.equals(before.special)
-    assert "cover: the first run and 4 starts in 1 piece(s) on this process" in one.summary
+    assert "cover: the first run and 4 starts in 1 run(s) on this process" in one.summary

@@ -427,7 +427,7 @@ def fig9_orbits(client):
         f"x ({spec.discard:g} + {spec.record}) periods, took {sweep_wall:.1f} s on {meta['workers']} worker(s); the continuation "
         f"of the branch through d = 1.2 alone ({len(single.branch)} points, {single.seconds:.1f} s). Every branch, "
         f"started again from each of the sweep's periodic points not yet on one (`scripts/orbits --cover`, its "
-        f"restarts in up to 16 pieces of the range on {meta['workers']} Dask worker(s)): "
+        f"restarts in {orb.PIECES} run(s) over the whole range, on the Dask client): "
         f"{len(rows)} points on {len({r['branch'] for r in rows})} branches, {orbits.seconds:.1f} s.",
         "",
         f"**The sweep's periodic responses on a continued branch**: {matched} of the {total} gaps where the sweep "
