@@ -231,3 +231,69 @@ def test_the_hard_spring_stop_branch_goes_on_through_its_grazings(tmp_path):
     special = result.special.to_pylist()
     for kind, at in [("NS", 108.8220912), ("NS", 105.1031517), ("PD", 94.38834366)]:
         assert any(s["type"] == kind and abs(s["shaker.omega"] - at) < 1e-8 * at for s in special), (kind, at, special)
+
+
+# ---------------------------------------------------------------- --cover on Dask
+
+# The oscillator of issue 44 (c = 0.2, w = 0.8, d = 0.5): a period-1 branch,
+# grazing at A = 0.19698 and doubling at A = 0.25528 onto a period-2 branch.
+COVERED = dict(OSCILLATOR, structure={"type": "chain", "masses": 1, "m": 1.0, "k": 1.0, "c": 0.2},
+               loads=[{"type": "point_harmonic", "name": "A", "mass": 1, "amplitude": 0.1, "omega": 0.8, "waveform": "cos"}],
+               stops=[{"name": "stop", "mass": 1, "gap": 0.5, "side": "positive",
+                       "law": {"type": "restitution", "R": 0.8, "eps": 1e-9}}])
+
+
+@pytest.fixture
+def covered(tmp_path):
+    """The oscillator's scene over A = 0.21 .. 0.3 (continued from 0.3), and
+    a "sweep" whose periodic points lie on no branch (their samples far
+    off), so that every one of them is a start."""
+    scene = tmp_path / "oscillator.json"
+    scene.write_text(json.dumps(COVERED))
+    sweep = pa.Table.from_pylist([{"A.amplitude": a, "period": 1, "impacts_per_period": 1.0, "poincare": [5.0],
+                                   "error": None} for a in AMPLITUDES])
+    return scene, sweep
+
+
+AMPLITUDES = [0.22, 0.24, 0.26, 0.28]
+COVER = dict(start=0.3, points=8, transient=10, max_branches=8, max_period=2)
+
+
+def test_cover_on_dask_merges_as_one_process_does(covered, tmp_path):
+    """cover's restarts shared out among runs on a Dask cluster give the
+    tables of the same runs one after the other, whatever order they end
+    in; each run goes over the whole range, from the start first, and the
+    merge drops what a later run found again."""
+    from distributed import Client
+
+    scene, sweep = covered
+    serial = orbits.cover(scene, "A.amplitude", 0.21, 0.3, sweep, out=tmp_path / "serial", pieces_count=2, **COVER)
+    with Client(processes=False, n_workers=2, threads_per_worker=1, dashboard_address=None) as client:
+        dask = orbits.cover(scene, "A.amplitude", 0.21, 0.3, sweep, out=tmp_path / "dask", pieces_count=2,
+                            client=client, **COVER)
+    assert dask.branch.equals(serial.branch) and dask.special.equals(serial.special)
+    assert pq.read_table(tmp_path / "dask" / "branch.parquet").equals(serial.branch)
+    assert sorted(p.name for p in (tmp_path / "dask" / "runs").iterdir()) == ["000", "001", "first"]
+    assert orbits.pieces(AMPLITUDES, [0.3], 2) == [[0.3, 0.22, 0.24], [0.3, 0.26, 0.28]]
+    # Both runs found the start's branches; the second's are dropped, its own kept.
+    runs = [orbits.read_csv(tmp_path / "dask" / "runs" / k / "branch.csv") for k in ("000", "001")]
+    first = orbits.read_csv(tmp_path / "dask" / "runs" / "first" / "branch.csv")
+    assert all(min(r.column("A.amplitude").to_pylist()) < 0.22 for r in runs)  # the whole range, not a piece
+    count = lambda t: len(set(t.column("branch").to_pylist()))  # noqa: E731
+    assert count(dask.branch) > count(first) and count(dask.branch) < count(runs[0]) + count(runs[1])
+    assert "2 run(s) on 2 Dask worker(s)" in dask.summary and "lying on one kept before dropped" in dask.summary
+
+
+def test_cover_in_one_piece_is_the_one_run_of_before(covered, tmp_path, capfd):
+    """--pieces 1: the run from the start and every missed point, the tables
+    of cover before it ran on Dask; beamstop's progress lines on stderr."""
+    scene, sweep = covered
+    one = orbits.cover(scene, "A.amplitude", 0.21, 0.3, sweep, out=tmp_path / "one", pieces_count=1, progress=True,
+                       **COVER)
+    err = capfd.readouterr().err
+    assert "cover first: orbits: branch 0 (period 1 T) starts at A.amplitude = 0.3" in err
+    assert "cover 1/1: orbits: branch 0 (period 1 T) starts" in err and "cover: run 1/1 done" in err
+    before = orbits.continue_orbits(scene, "A.amplitude", 0.21, 0.3, start=[0.3] + AMPLITUDES, points=8,
+                                    transient=10, max_branches=8, max_period=2, out=tmp_path / "before")
+    assert one.branch.equals(before.branch) and one.special.equals(before.special)
+    assert "cover: the first run and 4 starts in 1 run(s) on this process" in one.summary

@@ -388,7 +388,8 @@ def fig9_orbits(client):
     starts = [1.2]
     orbits = orb.cover(ROOT / "scenes" / "pinned_beam.json", "d", lo, hi, sweep_table, start=starts,
                        sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
-                       transient=int(spec.discard), max_branches=2 if QUICK else 200, out=WORK / "fig9_orbits")
+                       transient=int(spec.discard), max_branches=2 if QUICK else 200, out=WORK / "fig9_orbits",
+                       client=client)
     single = orb.continue_orbits(ROOT / "scenes" / "pinned_beam.json", "d", lo, hi, start=[1.2],
                                  sets={"F": 72.0, "omega": 0.7 * PI2, "eps": 1e-3}, points=40 if QUICK else 200,
                                  max_branches=1, out=WORK / "fig9_orbits_one")
@@ -422,10 +423,11 @@ def fig9_orbits(client):
     ends = [s for s in single.special.to_pylist() if s["type"] in ("PD", "GR", "SN") and two and
             min(r["d"] for r in two) - 1e-3 <= s["d"] <= max(r["d"] for r in two) + 1e-3]
     lines = [
-        f"**Cost, side by side** (one core each, this run): the brute-force sweep, {meta['points_computed']} gaps "
+        f"**Cost, side by side** (this run): the brute-force sweep, {meta['points_computed']} gaps "
         f"x ({spec.discard:g} + {spec.record}) periods, took {sweep_wall:.1f} s on {meta['workers']} worker(s); the continuation "
         f"of the branch through d = 1.2 alone ({len(single.branch)} points, {single.seconds:.1f} s). Every branch, "
-        f"started again from each of the sweep's periodic points not yet on one (`scripts/orbits --cover`): "
+        f"started again from each of the sweep's periodic points not yet on one (`scripts/orbits --cover`, its "
+        f"restarts in {orb.PIECES} run(s) over the whole range, on the Dask client): "
         f"{len(rows)} points on {len({r['branch'] for r in rows})} branches, {orbits.seconds:.1f} s.",
         "",
         f"**The sweep's periodic responses on a continued branch**: {matched} of the {total} gaps where the sweep "
