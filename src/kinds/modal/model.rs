@@ -191,10 +191,6 @@ impl Model {
                 s.law.name()
             ));
         }
-        let integrated = |s: &&StopModel| [Contact::Open, Contact::Pressed, Contact::Held, Contact::Penetrated].iter().any(|c| s.law.term(*c) == PhaseTerm::Nonlinear);
-        if let Some(s) = self.stops.iter().find(integrated) {
-            return Some(format!("stop '{}' (law '{}') has a nonlinear contact phase, which is integrated: its flow has no closed form", s.name, s.law.name()));
-        }
         None
     }
 

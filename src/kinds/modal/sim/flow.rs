@@ -21,9 +21,9 @@
 //!   `F+-` are the phases' exact accelerations at the event, `Dg` the
 //!   guard functional's coefficients.
 //!
-//! Not covered (refused with the reason): integrated (Hertz) phases, whose
-//! flow has no closed form, and mode transfer, whose basis changes at
-//! contact. Several guards at zero at one instant (two stops struck at
+//! Integrated (Hertz, power-law) phases: `flow_integrated.rs`. Not
+//! covered (refused with the reason): mode transfer, whose basis changes
+//! at contact. Several guards at zero at one instant (two stops struck at
 //! once) take the first one's saltation.
 
 use nalgebra::{DMatrix, DVector};
@@ -83,18 +83,45 @@ impl Simulation {
         }
         let dim = 2 * self.model.n_modes();
         let mut m = DMatrix::identity(dim, dim);
+        // Each stop's onset speed's derivative with respect to the state
+        // started from (an integrated phase's hysteretic damping scales
+        // with it; see flow_integrated.rs): zero until an onset sets it.
+        let mut onset = DMatrix::zeros(self.model.stops.len(), dim);
+        let mut after_event = false;
         loop {
             let (t0, x0) = (self.state.time, self.state.current.clone());
             let before = self.clone();
-            let reached = self.advance(t_end, Some(&mut |_| true))?;
+            self.flow_trace = self.integrated_step_end().map(|t| vec![t]).or(Some(Vec::new()));
+            let reached = self.advance(t_end, Some(&mut |_| true));
+            let trace = self.flow_trace.take().unwrap_or_default();
+            let reached = reached?;
             let t1 = self.state.time;
             if t1 > t0 {
-                m = before.phase_transition(t0, &x0, t1)? * m;
+                #[cfg(feature = "power-law")]
+                if before.segment.is_integrated() {
+                    let phase = before.integrated_transition(t0, &x0, t1, &trace, (after_event, matches!(reached, Reached::Event(_))))?;
+                    let mut next = &phase.state * &m;
+                    for (stop, column) in &phase.onset {
+                        next += column * onset.row(*stop);
+                    }
+                    m = next;
+                } else {
+                    m = before.phase_transition(t0, &x0, t1)? * m;
+                }
+                #[cfg(not(feature = "power-law"))]
+                {
+                    let _ = &trace;
+                    m = before.phase_transition(t0, &x0, t1)? * m;
+                }
             }
             match reached {
                 Reached::Time => return Ok(m),
                 Reached::Event(_) => {
-                    let s = self.apply_events_with_saltation()?;
+                    after_event = true;
+                    let (s, onsets) = self.apply_events_with_saltation()?;
+                    for (stop, row) in onsets {
+                        onset.set_row(stop, &(row.transpose() * &m));
+                    }
                     m = s * m;
                 }
             }
@@ -155,7 +182,7 @@ impl Simulation {
                 }
             }
             #[cfg(feature = "power-law")]
-            Segment::Integrated(_) => unreachable!("refused by flow_unsupported"),
+            Segment::Integrated(_) => return self.integrated_vector_field(),
         }
         DVector::from_iterator(2 * n, st.qd.iter().chain(a.iter()).copied())
     }
@@ -165,6 +192,11 @@ impl Simulation {
     fn pending_guard(&mut self) -> Result<(Functional, DVector<f64>), SimError> {
         let t = self.state.time;
         let n = self.model.n_modes();
+        #[cfg(feature = "power-law")]
+        if self.segment.is_integrated() {
+            // No load term: an integrated phase's functions are of the state.
+            return Ok((self.integrated_guard()?.unwrap_or(Functional { offset: 0.0, q: DVector::zeros(n), qd: None, f: None }), DVector::zeros(n)));
+        }
         let mut buffers = ProbeBuffers::new(&self.dynamics);
         let mut st = ModalState::zeros(n);
         // At zero within its noise, or (the search's last resort) the
@@ -195,8 +227,9 @@ impl Simulation {
     }
 
     /// Makes the pending event's change (an advance to the same time)
-    /// and returns its saltation matrix (module doc).
-    fn apply_events_with_saltation(&mut self) -> Result<DMatrix<f64>, SimError> {
+    /// and returns its saltation matrix (module doc), with the derivative
+    /// of each compliant onset's speed by the state just before it.
+    fn apply_events_with_saltation(&mut self) -> Result<(DMatrix<f64>, Vec<(usize, DVector<f64>)>), SimError> {
         let n = self.model.n_modes();
         let dim = 2 * n;
         let (guard, load_rate) = self.pending_guard()?;
@@ -205,6 +238,7 @@ impl Simulation {
         self.record_events = true;
         self.advance(self.state.time, None)?;
         let impacted = self.events[recorded..].iter().any(|e| matches!(e.kind, super::EventKind::Impact { .. } | super::EventKind::Stick { .. }));
+        let onsets: Vec<usize> = self.events[recorded..].iter().filter_map(|e| if let super::EventKind::Contact { stop, .. } = e.kind { Some(stop) } else { None }).collect();
         if !recording {
             self.events.truncate(recorded);
         }
@@ -243,13 +277,31 @@ impl Simulation {
         }
         let explicit = guard.f.as_ref().map_or(0.0, |c| c.dot(&load_rate));
         let rate = dg.dot(&f_minus) + explicit;
+        let jump = &f_plus - &dr * &f_minus;
+        if dg.amax() == 0.0 && jump.amax() == 0.0 {
+            // A guard whose gradient the phase does not form (a held
+            // stop's reaction in an integrated phase) at a switch that
+            // leaves the vector field continuous: nothing to add.
+            return Ok((dr, Vec::new()));
+        }
         if rate == 0.0 || !rate.is_finite() {
             return Err(SimError::Unsupported(format!(
                 "the exact flow: the event at t = {} is tangential (guard rate {rate:e}): its saltation matrix does not exist (grazing)",
                 self.state.time
             )));
         }
-        let jump = &f_plus - &dr * &f_minus;
-        Ok(dr + jump * dg.transpose() / rate)
+        // The onset speed `v0 = side w . q'` where the guard is reached:
+        // `dv0 = Dv dx + (Dv F-) dt`, `dt = -Dg dx / g'`.
+        let onsets = onsets
+            .into_iter()
+            .map(|i| {
+                let g = &self.geometries[i];
+                let mut dv = DVector::zeros(dim);
+                dv.rows_mut(n, n).copy_from(&(&g.w * g.side));
+                let shift = dv.dot(&f_minus) / rate;
+                (i, &dv - &dg * shift)
+            })
+            .collect();
+        Ok((dr + jump * dg.transpose() / rate, onsets))
     }
 }
