@@ -149,7 +149,7 @@ pub(crate) fn map(scene: &Component, t0: f64, period: f64, x: &DVector<f64>) -> 
     let mut run = start_from(scene, t0, x)?;
     run.set_event_recording(true);
     run.drain_events();
-    let flow = run.flow().ok_or("the scene's kind has no exact flow (an integrated or mode-transfer phase)")?;
+    let flow = run.flow().ok_or("the scene's kind has no exact flow (mode transfer, or a kind without one)")?;
     let jacobian = flow.advance_with_jacobian(t0 + period).map_err(|e| e.to_string())?;
     let end = flow.state();
     let impacts = run.drain_events().iter().filter(|e| matches!(e.class, EventClass::Impact | EventClass::ContactOnset)).count();
