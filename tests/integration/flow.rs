@@ -169,3 +169,36 @@ fn hertz_linear_damping_jump() {
     assert!(events >= 4, "{events} events");
     assert!(err < 1e-5, "relative difference {err:e} over {events} events");
 }
+
+/// A shipped spring-stop scene with its stop's contact method.
+fn with_method(name: &str, method: &str) -> Scene {
+    let text = std::fs::read_to_string(format!("{}/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    Scene::from_json(&text.replace(r#""type": "spring_dashpot","#, &format!(r#""type": "spring_dashpot", "method": "{method}","#))).unwrap()
+}
+
+/// The first time after `from` at which the run is in free flight, on a
+/// grid of `step`.
+fn free_flight_after(model: &Model, from: f64, step: f64) -> f64 {
+    let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+    let mut t = from;
+    loop {
+        sim.advance_to(t).unwrap();
+        if (0..model.stops.len()).all(|i| sim.contact(i) == beamstop::contact::Contact::Open) {
+            return t;
+        }
+        t += step;
+    }
+}
+
+#[test]
+fn mode_transfer_mtm_switches() {
+    // MTM on the hard spring stop (20 modes) at its forcing: from free
+    // flight over a forcing period with its contacts, each switch a change
+    // of basis (the reset's Jacobian with its saltation).
+    let model = Model::build(&with_method("spring_stop_hard", "mtm")).unwrap();
+    let period = 2.0 * std::f64::consts::PI / model.loads.harmonics[0].omega;
+    let t0 = free_flight_after(&model, 10.0 * period, period / 50.0);
+    let (_, err, events) = check(model, t0, t0 + period, 1e-7);
+    assert!(events >= 2, "{events} events");
+    assert!(err < 1e-7, "relative difference {err:e} over {events} events");
+}

@@ -530,7 +530,9 @@ fn multipliers_against(multipliers: &[C64], m: &nalgebra::DMatrix<f64>) -> f64 {
 fn residuals_from_moved(scene: &Component, x: &DVector<f64>, period: f64, fraction: f64, tolerance: f64) -> Vec<f64> {
     let size = x.amax();
     let moved = DVector::from_fn(x.len(), |k, _| x[k] + fraction * size * if k % 2 == 0 { 1.0 } else { -1.0 });
-    shoot(scene, 0.0, period, &moved, Shooting { tolerance, ..Shooting::default() }).unwrap().residuals
+    let orbit = shoot(scene, 0.0, period, &moved, Shooting { tolerance, ..Shooting::default() }).unwrap();
+    assert!((&orbit.state - x).amax() < 1e-8 * size, "Newton from the moved state found another orbit");
+    orbit.residuals
 }
 
 #[test]
@@ -616,4 +618,23 @@ fn hertz_oscillator_grazing_and_both_branches() {
             assert!(p.profile.peak > 1.0, "A = {}: peak {} not inside the stop", p.param, p.profile.peak);
         }
     }
+}
+
+#[test]
+fn mtm_spring_stop_orbit_newton_and_multipliers() {
+    // The hard spring stop (20 modes) with mode transfer by MTM at its
+    // forcing (1.3 omega_1): Newton from a transient, multipliers against
+    // central differences (step 1e-6).
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/spring_stop_hard.json")).unwrap();
+    let scene = Component::from_json(&text.replace(r#""type": "spring_dashpot","#, r#""type": "spring_dashpot", "method": "mtm","#)).unwrap();
+    let period = 2.0 * PI / 136.49234534301007;
+    let guess = strobe(&scene, 0.0, period, 12).unwrap();
+    let orbit = shoot(&scene, 0.0, period, &guess, Shooting::default()).unwrap();
+    let cd = monodromy_by_differences(&scene, &orbit.state, period, 1e-6);
+    let diff = multipliers_against(&orbit.multipliers, &cd);
+    let largest = orbit.multipliers.iter().map(|z| z.norm()).fold(0.0, f64::max);
+    eprintln!("SpringStopHard, MTM: {} contacts per period, residuals {:?}, largest multiplier {largest:.6}, multipliers against differences {diff:e}", orbit.impacts_per_period, orbit.residuals);
+    assert!(orbit.impacts_per_period >= 1);
+    assert!(quadratic(&orbit.residuals) && *orbit.residuals.last().unwrap() < 1e-12, "{:?}", orbit.residuals);
+    assert!(diff < 1e-5, "multipliers {diff:e} from the differences'");
 }

@@ -21,10 +21,13 @@
 //!   `F+-` are the phases' exact accelerations at the event, `Dg` the
 //!   guard functional's coefficients.
 //!
-//! Integrated (Hertz, power-law) phases: `flow_integrated.rs`. Not
-//! covered (refused with the reason): mode transfer, whose basis changes
-//! at contact. Several guards at zero at one instant (two stops struck at
-//! once) take the first one's saltation.
+//! Integrated (Hertz, power-law) phases: `flow_integrated.rs`. Mode
+//! transfer by MTM: the switch's reset is the change of basis (the state
+//! is in the basis of the current phase: a section in free flight has
+//! the structure's modes at both ends). Not covered (refused with the
+//! reason): RMTM, whose frozen shape is state besides `[q; q']`. Several
+//! guards at zero at one instant (two stops struck at once) take the
+//! first one's saltation.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -32,7 +35,7 @@ use super::phases::Segment;
 use super::search::{Probe, ProbeBuffers};
 use super::{Reached, SimError, Simulation};
 use crate::contact::impact::{apply_impact, ImpactRow};
-use crate::contact::Watch;
+use crate::contact::{Contact, Watch};
 use crate::solve::free::ModalJet;
 use crate::solve::lti::CoupledSample;
 use crate::solve::{Functional, ModalState};
@@ -257,6 +260,7 @@ impl Simulation {
         let dim = 2 * n;
         let (guard, load_rate) = self.pending_guard()?;
         let f_minus = self.vector_field();
+        let transfer_before = self.model.transfer.as_ref().map(|tr| self.state.stops[tr.stop].contact);
         let (recording, recorded) = (self.record_events, self.events.len());
         self.record_events = true;
         self.advance(self.state.time, None)?;
@@ -290,6 +294,23 @@ impl Simulation {
                     v = st.qd;
                 }
                 dr.view_mut((n, n), (n, n)).set_column(k, &v);
+            }
+        }
+        // Mode transfer (MTM): entering or leaving contact changes the basis,
+        // `q+ = P T q` and `q'+ = T q'` (`T^T` leaving), `P` putting the
+        // stop's point back on its surface along the new basis's shape
+        // (transfer.rs): `DR = diag((I - s s^T / s^T s) T, T)`.
+        if let (Some(tr), Some(was)) = (&self.model.transfer, transfer_before) {
+            let now = self.state.stops[tr.stop].contact;
+            let into = was != Contact::Pressed && now == Contact::Pressed;
+            let out = was == Contact::Pressed && now != Contact::Pressed;
+            if into || out {
+                let t = if into { tr.overlap.clone() } else { tr.overlap.transpose() };
+                let shape = if into { tr.stop_w.clone() } else { self.model.stops[tr.stop].geometry.w.clone() };
+                let p = DMatrix::identity(n, n) - &shape * shape.transpose() / shape.dot(&shape);
+                dr = DMatrix::zeros(dim, dim);
+                dr.view_mut((0, 0), (n, n)).copy_from(&(p * &t));
+                dr.view_mut((n, n), (n, n)).copy_from(&t);
             }
         }
         // Dg and the guard's rate along the motion before the event.
