@@ -114,11 +114,11 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
             }
         }
         square_sum += state(&mut run).norm_squared();
-        if !events.is_empty() {
+        let compliant = |c: EventClass| matches!(c, EventClass::ContactOnset | EventClass::PushEnd | EventClass::PushResumed | EventClass::Separation);
+        if !events.is_empty() && events.iter().all(|e| compliant(e.class)) {
             // A compliant contact's deepest point lies between its onset
-            // and its separation: the maxima between events (a rigid
-            // impact's velocity jump at an interval's end only brackets
-            // the impact's own displacement, counted above).
+            // and its separation: the maxima between events (with rigid
+            // impacts, the peaks are theirs, counted above).
             let mut times: Vec<f64> = events.iter().map(|e| e.time).filter(|&t| t > t_a && t < t_b).collect();
             times.dedup();
             times.insert(0, t_a);
