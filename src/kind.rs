@@ -176,8 +176,9 @@ pub trait Run: Send + fmt::Debug + AnyRun {
     fn encode(&self, w: &mut Writer);
     /// Work counters since the start.
     fn work(&self) -> Work;
-    /// The exact flow of a closed-form kind, for shooting and continuation
-    /// (`None`: the kind integrates, and its flow has no exact Jacobian).
+    /// The flow as a map of the state with its Jacobian, for shooting and
+    /// continuation (exact for closed-form phases, the integrator's own
+    /// map's for integrated ones; `None`: the kind or a stop's law has none).
     fn flow(&mut self) -> Option<&mut dyn Flow> {
         None
     }

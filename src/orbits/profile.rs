@@ -13,7 +13,8 @@ use crate::solve::regula_falsi::RegulaFalsi;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
     /// The largest displacement of the first stop's contact point (at the
-    /// samples, the events and the smooth maxima between samples).
+    /// samples, the events and the smooth maxima between samples and
+    /// between events: a compliant contact's deepest point).
     pub peak: f64,
     /// The root mean square over the period of the state's 2-norm.
     pub norm: f64,
@@ -113,6 +114,24 @@ pub fn profile(scene: &Component, t0: f64, period: f64, periods: usize, x: &DVec
             }
         }
         square_sum += state(&mut run).norm_squared();
+        let compliant = |c: EventClass| matches!(c, EventClass::ContactOnset | EventClass::PushEnd | EventClass::PushResumed | EventClass::Separation);
+        if !events.is_empty() && events.iter().all(|e| compliant(e.class)) {
+            // A compliant contact's deepest point lies between its onset
+            // and its separation: the maxima between events (with rigid
+            // impacts, the peaks are theirs, counted above).
+            let mut times: Vec<f64> = events.iter().map(|e| e.time).filter(|&t| t > t_a && t < t_b).collect();
+            times.dedup();
+            times.insert(0, t_a);
+            times.push(t_b);
+            let mut from = clearance_at(at_a.as_ref(), 0, t_a)?;
+            for w in times.windows(2) {
+                let to = clearance_at(at_a.as_ref(), 0, w[1])?;
+                if w[1] > w[0] && from.velocity > 0.0 && to.velocity <= 0.0 {
+                    profile.peak = profile.peak.max(smooth_maximum(at_a.as_ref(), w[0], w[1])?);
+                }
+                from = to;
+            }
+        }
         if events.is_empty() {
             for (i, (a, b)) in before.iter().zip(&after).enumerate() {
                 if a.rate < 0.0 && b.rate >= 0.0 && a.gap > 0.0 && b.gap > 0.0 {

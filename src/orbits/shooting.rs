@@ -139,7 +139,7 @@ pub fn onto_stops(scene: &Component, t0: f64, x: &DVector<f64>) -> Option<DVecto
 /// `t0`: a guess past the transient.
 pub fn strobe(scene: &Component, t0: f64, period: f64, periods: usize) -> Result<DVector<f64>, String> {
     let mut run = scene.start(t0, &vec![0.0; scene.inputs().len()])?;
-    run.advance_to(t0 + periods as f64 * period).map_err(|e| e.to_string())?;
+    advance_by_periods(run.as_mut(), t0, period, periods)?;
     let flow = run.flow().ok_or("the scene's kind has no exact flow")?;
     Ok(flow.state())
 }
@@ -149,7 +149,7 @@ pub(crate) fn map(scene: &Component, t0: f64, period: f64, x: &DVector<f64>) -> 
     let mut run = start_from(scene, t0, x)?;
     run.set_event_recording(true);
     run.drain_events();
-    let flow = run.flow().ok_or("the scene's kind has no exact flow (an integrated or mode-transfer phase)")?;
+    let flow = run.flow().ok_or("the scene's kind has no exact flow (mode transfer, or a kind without one)")?;
     let jacobian = flow.advance_with_jacobian(t0 + period).map_err(|e| e.to_string())?;
     let end = flow.state();
     let impacts = run.drain_events().iter().filter(|e| matches!(e.class, EventClass::Impact | EventClass::ContactOnset)).count();
@@ -203,4 +203,16 @@ pub fn minimal_period(scene: &Component, orbit: Orbit, forcing_period: f64, sett
         }
     }
     Ok(orbit)
+}
+
+/// Advances `run` (at `t0`) by `periods` forcing periods of `period`, one
+/// advance per period, as a master's communication steps would: the work
+/// cap of one advance then bounds one period, not a whole transient (an
+/// integrated contact's steps weigh more than a closed-form kind's event
+/// search). The trajectory does not depend on the advances' ends.
+pub fn advance_by_periods(run: &mut dyn Run, t0: f64, period: f64, periods: usize) -> Result<(), String> {
+    for k in 1..=periods {
+        run.advance_to(t0 + k as f64 * period).map_err(|e| e.to_string())?;
+    }
+    Ok(())
 }

@@ -11,7 +11,10 @@
 //! decisions: restitution impacts, a chatter sequence ending in a stick
 //! (the eps rule decides the same on both sides), the stuck phase and its
 //! release, a spring-dashpot stop's onset and separation with the dashpot's
-//! jump in the vector field.
+//! jump in the vector field. Integrated Hertz contacts (issue 44) at the
+//! tolerance 1e-12 with the step 1e-6: the one-mass oscillator with LN90
+//! damping (1e-7) and with a linear damping, whose force jumps at the
+//! onset (4e-8), and HertzStop's 20 modes over a forcing period.
 
 use crate::common;
 
@@ -110,6 +113,92 @@ fn spring_dashpot_onset_and_separation() {
     // dashpot's force at the onset.
     let scene = with(common::scene("spring_stop_soft"), &[(ParamKey::Law(0, 1), 0.5)]);
     let (_, err, events) = check(Model::build(&scene).unwrap(), 0.05, 0.2, 1e-7);
+    assert!(events >= 2, "{events} events");
+    assert!(err < 1e-7, "relative difference {err:e} over {events} events");
+}
+
+/// The one-mass oscillator of issue 44 with a Hertz stop (LN90 damping)
+/// at the gap 1: `c = 0.1`, `omega = 1`, amplitude `a`.
+pub fn hertz_oscillator(a: f64) -> Scene {
+    hertz_oscillator_with(a, r#""damping": "lankarani_nikravesh", "e": 0.8"#)
+}
+
+pub fn hertz_oscillator_with(a: f64, damping: &str) -> Scene {
+    Scene::from_json(&format!(
+        r#"{{"name": "HertzOscillator", "structure": {{"type": "chain", "masses": 1, "m": 1.0, "k": 1.0, "c": 0.1}},
+         "loads": [{{"type": "point_harmonic", "name": "A1", "mass": 1, "amplitude": {a}, "omega": 1.0, "waveform": "cos"}}],
+         "stops": [{{"name": "stop", "mass": 1, "gap": 1.0, "side": "positive", "law": {{"type": "hertz", "K": 1e6, {damping}}}}}],
+         "solver": {{"integration_tolerance": 1e-12}},
+         "experiment": {{"start": 0, "stop": 200, "step": 0.05}}}}"#
+    ))
+    .unwrap()
+}
+
+#[test]
+fn hertz_oscillator_contacts() {
+    // Integrated Hertz contacts with the onset speed's damping: over three
+    // forcing periods of the contacting orbit's transient.
+    let model = Model::build(&hertz_oscillator(0.15)).unwrap();
+    let t0 = 20.0;
+    let (_, err, events) = check(model, t0, t0 + 3.0 * std::f64::consts::TAU, 1e-6);
+    assert!(events >= 4, "{events} events");
+    assert!(err < 1e-5, "relative difference {err:e} over {events} events");
+}
+
+#[test]
+fn hertz_stop_beam_contacts() {
+    // HertzStop (20 modes) at its forcing, tolerance 1e-12, over one
+    // forcing period after a transient.
+    let scene = with(common::scene("hertz_stop"), &[(ParamKey::IntegrationTolerance, 1e-12)]);
+    let model = Model::build(&scene).unwrap();
+    let period = std::f64::consts::TAU / 136.49234534301007;
+    let t0 = 20.0 * period;
+    let (_, err, events) = check(model, t0, t0 + period, 1e-6);
+    assert!(events >= 2, "{events} events");
+    assert!(err < 1e-5, "relative difference {err:e} over {events} events");
+}
+
+
+
+#[test]
+fn hertz_linear_damping_jump() {
+    // DWZ's linear damping: the force jumps by C v0 at the onset, so the
+    // saltation there is not the identity; the push ends inside the stop.
+    let model = Model::build(&hertz_oscillator_with(0.15, r#""C": 100.0"#)).unwrap();
+    let (_, err, events) = check(model, 20.0, 20.0 + 3.0 * std::f64::consts::TAU, 1e-6);
+    assert!(events >= 4, "{events} events");
+    assert!(err < 1e-5, "relative difference {err:e} over {events} events");
+}
+
+/// A shipped spring-stop scene with its stop's contact method.
+fn with_method(name: &str, method: &str) -> Scene {
+    let text = std::fs::read_to_string(format!("{}/scenes/{name}.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    Scene::from_json(&text.replace(r#""type": "spring_dashpot","#, &format!(r#""type": "spring_dashpot", "method": "{method}","#))).unwrap()
+}
+
+/// The first time after `from` at which the run is in free flight, on a
+/// grid of `step`.
+fn free_flight_after(model: &Model, from: f64, step: f64) -> f64 {
+    let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+    let mut t = from;
+    loop {
+        sim.advance_to(t).unwrap();
+        if (0..model.stops.len()).all(|i| sim.contact(i) == beamstop::contact::Contact::Open) {
+            return t;
+        }
+        t += step;
+    }
+}
+
+#[test]
+fn mode_transfer_mtm_switches() {
+    // MTM on the hard spring stop (20 modes) at its forcing: from free
+    // flight over a forcing period with its contacts, each switch a change
+    // of basis (the reset's Jacobian with its saltation).
+    let model = Model::build(&with_method("spring_stop_hard", "mtm")).unwrap();
+    let period = 2.0 * std::f64::consts::PI / model.loads.harmonics[0].omega;
+    let t0 = free_flight_after(&model, 10.0 * period, period / 50.0);
+    let (_, err, events) = check(model, t0, t0 + period, 1e-7);
     assert!(events >= 2, "{events} events");
     assert!(err < 1e-7, "relative difference {err:e} over {events} events");
 }

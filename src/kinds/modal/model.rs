@@ -184,16 +184,13 @@ impl Model {
     /// Why runs of this model have no exact flow (for shooting), if they
     /// have none: a phase without a closed form, or a basis that changes.
     pub fn flow_unsupported(&self) -> Option<String> {
-        if let Some(s) = self.stops.iter().find(|s| s.law.mode_transfer().is_some()) {
+        if let Some(tr) = self.transfer.as_ref().filter(|tr| tr.method == crate::kinds::modal::scene::ContactMethod::Rmtm) {
+            let s = &self.stops[tr.stop];
             return Some(format!(
-                "stop '{}' (law '{}') uses mode transfer, which changes the modal basis at contact: its flow is not a map of one state vector",
+                "stop '{}' (law '{}') uses mode transfer by RMTM, whose frozen shape (the displacement kept at each switch, outside the span of either basis) is state besides [q; q']: its flow is not a map of [q; q'] (MTM and FIM are)",
                 s.name,
                 s.law.name()
             ));
-        }
-        let integrated = |s: &&StopModel| [Contact::Open, Contact::Pressed, Contact::Held, Contact::Penetrated].iter().any(|c| s.law.term(*c) == PhaseTerm::Nonlinear);
-        if let Some(s) = self.stops.iter().find(integrated) {
-            return Some(format!("stop '{}' (law '{}') has a nonlinear contact phase, which is integrated: its flow has no closed form", s.name, s.law.name()));
         }
         None
     }

@@ -91,7 +91,7 @@ impl Walker {
     /// of forcing periods after which the section repeats to 1e-6).
     pub(super) fn settle(&self, scene: &Component, forcing_period: f64, transient: usize, max_period: usize) -> Result<(DVector<f64>, usize), String> {
         let mut run = scene.start(self.t0, &vec![0.0; scene.inputs().len()])?;
-        run.advance_to(self.t0 + transient as f64 * forcing_period).map_err(|e| e.to_string())?;
+        crate::orbits::shooting::advance_by_periods(run.as_mut(), self.t0, forcing_period, transient)?;
         // A scene without an exact flow is refused before (shooting::check_flow).
         let x = run.flow().ok_or("the scene's kind has no exact flow")?.state();
         let mut copy = run.clone();

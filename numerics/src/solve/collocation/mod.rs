@@ -47,12 +47,14 @@ mod dense;
 mod kernels;
 mod newton;
 mod scheme;
+mod sensitivity;
 
 use dense::Memo;
 pub use kernels::StepKernels;
 use kernels::{ladder, Projected};
 use newton::Scratch;
 use scheme::{horner, Scheme};
+pub use sensitivity::Replay;
 
 /// The point forces of a phase, each a function of its point's
 /// coordinate `p = d . q - gap` and rate `p'`.
@@ -67,6 +69,14 @@ pub trait PointForces {
     fn held(&self, i: usize) -> bool {
         let _ = i;
         false
+    }
+    /// `dF/dv` of contact `i` at `(p, p')`, `v` the law's parameter that
+    /// depends on the motion (a hysteretic damping's onset speed); zero
+    /// for laws without one. Only a flow's Jacobian asks
+    /// ([`ForceCollocation::replay_with_jacobian`]).
+    fn parameter_partial(&self, i: usize, p: f64, pd: f64) -> f64 {
+        let _ = (i, p, pd);
+        0.0
     }
 }
 

@@ -19,9 +19,9 @@ const ROUNDING: f64 = 8.0 * f64::EPSILON;
 /// Working arrays of [`ForceCollocation::attempt`], kept between steps.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Scratch {
-    pf: Vec<f64>,
-    pdf: Vec<f64>,
-    f: DVector<f64>,
+    pub(super) pf: Vec<f64>,
+    pub(super) pdf: Vec<f64>,
+    pub(super) f: DVector<f64>,
     p: DVector<f64>,
     pd: DVector<f64>,
     law: Vec<(f64, f64, f64)>,

@@ -21,10 +21,13 @@
 //!   `F+-` are the phases' exact accelerations at the event, `Dg` the
 //!   guard functional's coefficients.
 //!
-//! Not covered (refused with the reason): integrated (Hertz) phases, whose
-//! flow has no closed form, and mode transfer, whose basis changes at
-//! contact. Several guards at zero at one instant (two stops struck at
-//! once) take the first one's saltation.
+//! Integrated (Hertz, power-law) phases: `flow_integrated.rs`. Mode
+//! transfer by MTM: the switch's reset is the change of basis (the state
+//! is in the basis of the current phase: a section in free flight has
+//! the structure's modes at both ends). Not covered (refused with the
+//! reason): RMTM, whose frozen shape is state besides `[q; q']`. Several
+//! guards at zero at one instant (two stops struck at once) take the
+//! first one's saltation.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -32,7 +35,7 @@ use super::phases::Segment;
 use super::search::{Probe, ProbeBuffers};
 use super::{Reached, SimError, Simulation};
 use crate::contact::impact::{apply_impact, ImpactRow};
-use crate::contact::Watch;
+use crate::contact::{Contact, Watch};
 use crate::solve::free::ModalJet;
 use crate::solve::lti::CoupledSample;
 use crate::solve::{Functional, ModalState};
@@ -83,18 +86,65 @@ impl Simulation {
         }
         let dim = 2 * self.model.n_modes();
         let mut m = DMatrix::identity(dim, dim);
+        // Each stop's onset speed's derivative with respect to the state
+        // started from (an integrated phase's hysteretic damping scales
+        // with it; see flow_integrated.rs): zero until an onset sets it.
+        let mut onset = DMatrix::zeros(self.model.stops.len(), dim);
+        let mut after_event = false;
         loop {
             let (t0, x0) = (self.state.time, self.state.current.clone());
             let before = self.clone();
-            let reached = self.advance(t_end, Some(&mut |_| true))?;
+            self.flow_trace = self.integrated_step_end().map(|t| vec![t]).or(Some(Vec::new()));
+            let reached = self.advance(t_end, Some(&mut |_| true));
+            let trace = self.flow_trace.take().unwrap_or_default();
+            let reached = reached?;
             let t1 = self.state.time;
             if t1 > t0 {
-                m = before.phase_transition(t0, &x0, t1)? * m;
+                #[cfg(feature = "power-law")]
+                if before.segment.is_integrated() {
+                    let phase = before.integrated_transition(t0, &x0, t1, &trace, (after_event, matches!(reached, Reached::Event(_))))?;
+                    let mut next = &phase.state * &m;
+                    for (stop, column) in &phase.onset {
+                        next += column * onset.row(*stop);
+                    }
+                    m = next;
+                } else {
+                    m = before.phase_transition(t0, &x0, t1)? * m;
+                }
+                #[cfg(not(feature = "power-law"))]
+                {
+                    let _ = &trace;
+                    m = before.phase_transition(t0, &x0, t1)? * m;
+                }
             }
             match reached {
                 Reached::Time => return Ok(m),
                 Reached::Event(_) => {
-                    let s = self.apply_events_with_saltation()?;
+                    after_event = true;
+                    let contacts: Vec<_> = self.state.stops.iter().map(|s| s.contact).collect();
+                    let (s, onsets) = self.apply_events_with_saltation()?;
+                    let stuck = |sim: &Self| sim.state.stops.iter().map(|s| s.contact).eq(contacts.iter().copied()) && sim.state.anchor_time < t1;
+                    if self.state.time == t1 && stuck(self) {
+                        // The switch the advance stopped before is not made
+                        // by the advance to its time: its search, resumed
+                        // where it stopped, finds it again a few roundings
+                        // later. A plain advance that far makes it (its
+                        // saltation is the one just formed; the flow over
+                        // those roundings is the identity to rounding).
+                        let mut step = 64.0 * f64::EPSILON * t1.abs().max(f64::MIN_POSITIVE);
+                        while stuck(self) && step <= 1e-9 * (t_end - t1).abs().max(t1.abs()) {
+                            self.advance((t1 + step).min(t_end), None)?;
+                            step *= 4.0;
+                        }
+                        if stuck(self) {
+                            return Err(SimError::Unsupported(format!(
+                                "the exact flow: the switch at t = {t1} is not made where the run stopped before it, nor within 1e-9 of the time after it"
+                            )));
+                        }
+                    }
+                    for (stop, row) in onsets {
+                        onset.set_row(stop, &(row.transpose() * &m));
+                    }
                     m = s * m;
                 }
             }
@@ -155,7 +205,7 @@ impl Simulation {
                 }
             }
             #[cfg(feature = "power-law")]
-            Segment::Integrated(_) => unreachable!("refused by flow_unsupported"),
+            Segment::Integrated(_) => return self.integrated_vector_field(),
         }
         DVector::from_iterator(2 * n, st.qd.iter().chain(a.iter()).copied())
     }
@@ -165,6 +215,14 @@ impl Simulation {
     fn pending_guard(&mut self) -> Result<(Functional, DVector<f64>), SimError> {
         let t = self.state.time;
         let n = self.model.n_modes();
+        #[cfg(feature = "power-law")]
+        if self.segment.is_integrated() {
+            // No load term: an integrated phase's functions are of the state.
+            // Not found again (or a held stop's reaction): no gradient,
+            // which only a switch with a jump in the vector field needs.
+            let guard = self.integrated_guard().ok().flatten();
+            return Ok((guard.unwrap_or(Functional { offset: 0.0, q: DVector::zeros(n), qd: None, f: None }), DVector::zeros(n)));
+        }
         let mut buffers = ProbeBuffers::new(&self.dynamics);
         let mut st = ModalState::zeros(n);
         // At zero within its noise, or (the search's last resort) the
@@ -195,16 +253,19 @@ impl Simulation {
     }
 
     /// Makes the pending event's change (an advance to the same time)
-    /// and returns its saltation matrix (module doc).
-    fn apply_events_with_saltation(&mut self) -> Result<DMatrix<f64>, SimError> {
+    /// and returns its saltation matrix (module doc), with the derivative
+    /// of each compliant onset's speed by the state just before it.
+    fn apply_events_with_saltation(&mut self) -> Result<(DMatrix<f64>, Vec<(usize, DVector<f64>)>), SimError> {
         let n = self.model.n_modes();
         let dim = 2 * n;
         let (guard, load_rate) = self.pending_guard()?;
         let f_minus = self.vector_field();
+        let transfer_before = self.model.transfer.as_ref().map(|tr| self.state.stops[tr.stop].contact);
         let (recording, recorded) = (self.record_events, self.events.len());
         self.record_events = true;
         self.advance(self.state.time, None)?;
         let impacted = self.events[recorded..].iter().any(|e| matches!(e.kind, super::EventKind::Impact { .. } | super::EventKind::Stick { .. }));
+        let onsets: Vec<usize> = self.events[recorded..].iter().filter_map(|e| if let super::EventKind::Contact { stop, .. } = e.kind { Some(stop) } else { None }).collect();
         if !recording {
             self.events.truncate(recorded);
         }
@@ -235,6 +296,23 @@ impl Simulation {
                 dr.view_mut((n, n), (n, n)).set_column(k, &v);
             }
         }
+        // Mode transfer (MTM): entering or leaving contact changes the basis,
+        // `q+ = P T q` and `q'+ = T q'` (`T^T` leaving), `P` putting the
+        // stop's point back on its surface along the new basis's shape
+        // (transfer.rs): `DR = diag((I - s s^T / s^T s) T, T)`.
+        if let (Some(tr), Some(was)) = (&self.model.transfer, transfer_before) {
+            let now = self.state.stops[tr.stop].contact;
+            let into = was != Contact::Pressed && now == Contact::Pressed;
+            let out = was == Contact::Pressed && now != Contact::Pressed;
+            if into || out {
+                let t = if into { tr.overlap.clone() } else { tr.overlap.transpose() };
+                let shape = if into { tr.stop_w.clone() } else { self.model.stops[tr.stop].geometry.w.clone() };
+                let p = DMatrix::identity(n, n) - &shape * shape.transpose() / shape.dot(&shape);
+                dr = DMatrix::zeros(dim, dim);
+                dr.view_mut((0, 0), (n, n)).copy_from(&(p * &t));
+                dr.view_mut((n, n), (n, n)).copy_from(&t);
+            }
+        }
         // Dg and the guard's rate along the motion before the event.
         let mut dg = DVector::zeros(dim);
         dg.rows_mut(0, n).copy_from(&guard.q);
@@ -243,13 +321,42 @@ impl Simulation {
         }
         let explicit = guard.f.as_ref().map_or(0.0, |c| c.dot(&load_rate));
         let rate = dg.dot(&f_minus) + explicit;
+        let jump = &f_plus - &dr * &f_minus;
+        if dg.amax() == 0.0 {
+            // A guard whose gradient the phase does not form (a held
+            // stop's reaction in an integrated phase, or a switch its
+            // search does not find again): fine where the vector field is
+            // continuous (a Hertz force is zero at the surface), refused
+            // where it jumps.
+            // (The two fields are formed from states a rounding apart, the
+            // one the run stopped in and the one the switch leaves.)
+            if jump.amax() <= 1e-9 * f_minus.amax().max(f_plus.amax()) {
+                return Ok((dr, Vec::new()));
+            }
+            return Err(SimError::Unsupported(format!(
+                "the exact flow: the switch at t = {} changes the vector field by {:e}, and its guard's gradient is not known there",
+                self.state.time,
+                jump.amax()
+            )));
+        }
         if rate == 0.0 || !rate.is_finite() {
             return Err(SimError::Unsupported(format!(
                 "the exact flow: the event at t = {} is tangential (guard rate {rate:e}): its saltation matrix does not exist (grazing)",
                 self.state.time
             )));
         }
-        let jump = &f_plus - &dr * &f_minus;
-        Ok(dr + jump * dg.transpose() / rate)
+        // The onset speed `v0 = side w . q'` where the guard is reached:
+        // `dv0 = Dv dx + (Dv F-) dt`, `dt = -Dg dx / g'`.
+        let onsets = onsets
+            .into_iter()
+            .map(|i| {
+                let g = &self.geometries[i];
+                let mut dv = DVector::zeros(dim);
+                dv.rows_mut(n, n).copy_from(&(&g.w * g.side));
+                let shift = dv.dot(&f_minus) / rate;
+                (i, &dv - &dg * shift)
+            })
+            .collect();
+        Ok((dr + jump * dg.transpose() / rate, onsets))
     }
 }

@@ -418,6 +418,9 @@ impl Simulation {
                 *probes += weight;
                 self.stats.probes += 1;
                 take_step(seg)?;
+                if let (Some(trace), Some(step)) = (&mut self.flow_trace, &seg.step) {
+                    trace.push(step.1);
+                }
             }
             let (t0, t1, _) = seg.step.clone().expect("a step");
             let Some(located) = first_switch(&**seg, t0, t1, scan) else {

@@ -26,6 +26,8 @@ mod coupled;
 mod events;
 mod flow;
 #[cfg(feature = "power-law")]
+mod flow_integrated;
+#[cfg(feature = "power-law")]
 mod integrated;
 #[cfg(feature = "power-law")]
 pub mod nonlinear;
@@ -97,6 +99,9 @@ pub struct Simulation {
     /// `None` until the first event). Boxed: taken out and put back at
     /// every event, a pointer moves instead of the scratch vectors' headers.
     event_work: Option<Box<EventWork>>,
+    /// While a flow's Jacobian is formed: the ends of the integrated
+    /// steps taken (derived, never part of the state).
+    flow_trace: Option<Vec<f64>>,
 }
 
 /// The event search bounds derivatives over at most this many of the
@@ -208,6 +213,7 @@ impl Simulation {
             basis_changed: false,
             transfer_system: None,
             event_work: None,
+            flow_trace: None,
         };
         sim.rebuild_segment()?;
         // An integrated phase rebuilds its steps from the anchor.

@@ -114,6 +114,19 @@ impl PointForces for NonlinearPhase {
         self.contacts[i].held
     }
 
+    /// `dF/dv0` (a hysteretic damping scales with `1 / v0`): a central
+    /// difference, exact to `(dv / v0)^2` for a force affine in `1 / v0`.
+    fn parameter_partial(&self, i: usize, p: f64, pd: f64) -> f64 {
+        let c = &self.contacts[i];
+        let v0 = c.onset_speed;
+        if c.held || v0 <= 0.0 || c.force(p, pd).0 == 0.0 {
+            return 0.0;
+        }
+        let dv = 1e-6 * v0;
+        let at = |v: f64| c.law.raw_force(p, pd, v).0;
+        (at(v0 + dv) - at(v0 - dv)) / (2.0 * dv)
+    }
+
     /// `E' = (F - F_spring) p'` while the stop pushes (a reaction does no work).
     fn dissipation_rate(&self, i: usize, p: f64, pd: f64, force: f64) -> f64 {
         if force > 0.0 && !self.contacts[i].held {
