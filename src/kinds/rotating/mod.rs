@@ -32,7 +32,7 @@ pub mod stepper;
 pub mod system;
 
 pub use codec::ROTATING_STATE_VERSION;
-pub use model::{RotatingModel, SpinUp};
+pub use model::{HubMotion, RotatingModel, SpinUp, Swing};
 pub use sim::{RotatingEvent, RotatingEventKind, RotatingSimulation, RotatingStats};
 pub use spec::RotatingSpec;
 
