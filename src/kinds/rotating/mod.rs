@@ -14,6 +14,8 @@
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
 //!   outputs;
 //! - [`codec`]: the run's versioned encoding, replayed on decode;
+//! - [`flow`]: a run with a periodically prescribed hub as a map of its
+//!   modal state, and that map's Jacobian (periodic orbits);
 //! - [`interface`]: the scene's parameters, input and outputs;
 //! - `kind`: the contract's side ([`RotatingKind`], [`RotatingRun`]).
 //!
@@ -24,6 +26,7 @@
 mod kind;
 pub mod codec;
 pub mod events;
+pub mod flow;
 pub mod interface;
 pub mod model;
 pub mod sim;
