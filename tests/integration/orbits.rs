@@ -300,7 +300,7 @@ fn a_run_from_a_state_refuses_what_it_cannot_start_from() {
     // Inside the stop: refused as the scene's own initial state would be.
     let inside = start_from(&scene, 0.0, &DVector::from_vec(vec![1.5, 0.0])).unwrap_err();
     assert!(inside.contains("penetrates"), "{inside}");
-    // The rotating beam is integrated: no exact flow to shoot with.
+    // The torque-driven rotating beam has no periodic drive: no flow to shoot with.
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/rotating_beam.json")).unwrap();
     let rotating = Component::from_json(&text).unwrap();
     let refused = start_from(&rotating, 0.0, &DVector::zeros(4)).unwrap_err();
@@ -353,7 +353,8 @@ fn newton_converges_quadratically_on_spring_stops_and_a_period_two_response() {
 
 #[test]
 fn scenes_without_an_exact_flow_are_refused_before_any_transient() {
-    // Hertz contact is integrated, the rotating beam too: refused up front
+    // Hertz contact is integrated, the torque-driven rotating beam has no
+    // periodic drive: refused up front
     // with the reason, not by a transient that runs into its work cap.
     for (file, said) in [("hertz_stop", "stop 'stop' (law 'hertz') has a nonlinear contact phase"), ("rotating_beam", "(kind 'rotating') has none")] {
         let text = std::fs::read_to_string(format!("{}/scenes/{file}.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
