@@ -4,26 +4,28 @@
 //! shooting and continuation of periodic orbits under a periodic drive
 //! (the harmonic swing, `hub.prescribed.harmonic`).
 //!
-//! **Internal numerical differentiation.** Nothing here is closed form, so
-//! the Jacobian is that of the integration itself, phase by phase (a phase
+//! **Internal differentiation.** Nothing here is closed form, so the
+//! Jacobian is that of the integration itself, phase by phase (a phase
 //! runs from one switch of the contact law to the next). The nominal run
 //! records the end of every accepted step ([`RotatingSimulation::trace`]);
-//! each phase's transition matrix is then the central difference of a
-//! *replay*: DOP853 stepped without error control over exactly those step
-//! ends from the phase's start state moved by `+-h` in one coordinate, the
-//! state at the phase's end (inside a step) taken as the nominal run takes
-//! it ([`super::stepper::full_order_state`]). A replay from the nominal
-//! start reproduces the nominal run; from a moved start it is a fixed
-//! composition of Runge-Kutta steps, a smooth map whose derivative is the
-//! discrete variational equation on the nominal grid, and which agrees
-//! with the flow's derivative to the integration's own tolerance. Central
-//! differences of the *simulation* instead see the adaptive step sequence
-//! change with the start: a map that jumps by the local error (at the
-//! default tolerance, 1e-12 of the motion) wherever a step is rejected or
-//! resized, so they need steps far larger than their truncation wants.
-//! The replay's differences take `h = 1e-6` of each coordinate's scale
-//! (the largest modal coordinate, or rate): truncation about `h^2`,
-//! rounding about `1e-16 / h`, both near 1e-10 relative.
+//! each phase's transition matrix comes from a *replay*: DOP853 stepped
+//! without error control over exactly those step ends from the phase's
+//! start, the state at the phase's end (inside a step) taken as the
+//! nominal run takes it ([`super::stepper::full_order_state`]), together
+//! with its variational equations `V' = (df/dy) V` (the phase's analytic
+//! Jacobian, [`super::system`]) in the same Runge-Kutta stages: the exact
+//! derivative of the replayed map, a fixed composition of Runge-Kutta
+//! steps and smooth in its start, which agrees with the flow's derivative
+//! to the integration's own tolerance. Central differences of the
+//! *simulation* instead see the adaptive step sequence change with the
+//! start: a map that jumps by the local error wherever a step is rejected
+//! or resized. One thing the nominal steps do not do is resolve a mode
+//! the nominal motion barely excites (DOP853's step control follows the
+//! error of what moves, up to its stability limit, `h omega_N` about 4):
+//! a perturbation does excite it, so the replay splits each step into
+//! pieces of at most [`RESOLUTION`] radians of the highest mode. The test
+//! compares the variational replay with central differences of the replay
+//! (1e-7) and the phase chain with central differences of the simulation.
 //!
 //! **Switches.** At a switch of the contact law at `t_e`, where the
 //! watched function `g` (the gap at an onset, the law's force at the end
@@ -40,8 +42,8 @@
 //! onset, a state of its own. The Jacobian is propagated for `[x; v0]`:
 //! an onset resets `v0 = gamma'(x)`, the row `D gamma' - gamma'' Dg / g'`
 //! (the time shift of the onset moves the rate it is read at), and a
-//! contact phase's transition has a column for `v0` (a replay with `v0 +-
-//! h`). A run started inside the surface takes its onset speed from the
+//! contact phase's transition has a column for `v0` (its variational
+//! equation forced by `df/dv0`, a central difference of the law). A run started inside the surface takes its onset speed from the
 //! start state, which the Jacobian holds fixed: put the section where the
 //! tip is free.
 //!
@@ -63,15 +65,17 @@ use crate::kind::{Clearance, Reached, Surface};
 use crate::solve::dop853::Dop853;
 use crate::solve::radau::RadauOptions;
 
-/// The replay's relative difference step.
+/// The relative difference step of `df/dv0` (and of the check's
+/// differences of the replay).
 const H: f64 = 1e-6;
 /// The longest replayed piece of a step, in radians of the highest mode
 /// (`h omega_N`): DOP853's steps follow the nominal motion's error, in
 /// which the highest modes are barely excited, up to its stability limit
 /// (`h omega_N` about 4); a perturbation that excites them is resolved
 /// to about 1e-6 of its effect at 1 (TappingArm, 0.15 period: the
-/// highest mode's column within 1e-4, the others 1e-6 of their size; at
-/// 4, the two highest modes' columns off by 10 % and 100 %).
+/// highest mode's column within 1e-4 of the simulation's differences, the
+/// others 1e-6 of their size; unsplit, the two highest modes' columns
+/// off by 10 % and 100 %).
 const RESOLUTION: f64 = 1.0;
 
 impl RotatingSimulation {
@@ -139,7 +143,7 @@ impl RotatingSimulation {
             let t_b = self.time;
             if t_b > t_a {
                 let options = self.options.clone();
-                m = phase_transition(&phase, &options, t_a, &y_a, &grid, t_b)? * m;
+                m = tangent_replay(&phase, &options, t_a, &y_a, &grid, t_b)? * m;
             }
             match reached {
                 Reached::Time => return Ok(m.rows(0, dim).into_owned()),
@@ -270,9 +274,118 @@ fn replay(phase: &Phase, options: &RadauOptions, t_a: f64, y: &DVector<f64>, gri
         .ok_or(SimError::Integration { time: t_b, message: "the flow's Jacobian: a replayed step is not finite".into() })
 }
 
+/// The phase's equations and their variational equations, `[y; V]` with
+/// `V' = (df/dy) V` (`V` column-major, `cols` columns, the last one for
+/// the onset speed when `dv0` is set: `V' = (df/dy) V + df/dv0`).
+struct Tangent {
+    phase: Phase,
+    dim: usize,
+    cols: usize,
+    dv0: bool,
+    y: DVector<f64>,
+    f: DVector<f64>,
+    jac: DMatrix<f64>,
+}
+
+impl crate::solve::dop853::Rhs for Tangent {
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let dim = self.dim;
+        self.y.copy_from_slice(&y[..dim]);
+        let ok = self.phase.fill_rhs(t, &self.y, &mut self.f).is_ok() && self.phase.fill_jacobian(t, &self.y, &mut self.jac).is_ok();
+        if !ok {
+            dy.fill(f64::NAN);
+            return;
+        }
+        dy[..dim].copy_from_slice(self.f.as_slice());
+        let v = nalgebra::DMatrixView::from_slice(&y[dim..], dim, self.cols);
+        let mut dv = nalgebra::DMatrixViewMut::from_slice(&mut dy[dim..], dim, self.cols);
+        dv.gemm(1.0, &self.jac, &v, 0.0);
+        if self.dv0 {
+            // df/dv0 by a central difference of the law (smooth in v0 > 0).
+            let v0 = self.phase.onset_speed;
+            let h = H * v0;
+            let mut column = DVector::zeros(dim);
+            let mut other = DVector::zeros(dim);
+            let mut moved = self.phase.clone();
+            moved.onset_speed = v0 + h;
+            let up = moved.fill_rhs(t, &self.y, &mut column).is_ok();
+            moved.onset_speed = v0 - h;
+            let down = moved.fill_rhs(t, &self.y, &mut other).is_ok();
+            if !(up && down) {
+                dy.fill(f64::NAN);
+                return;
+            }
+            let last = self.cols - 1;
+            for i in 0..dim {
+                dv[(i, last)] += (column[i] - other[i]) / (2.0 * h);
+            }
+        }
+    }
+}
+
+/// [`replay`] with its variational equations: the transition matrix of
+/// `y` (and the onset speed's column, in contact) over the same pieces, the
+/// derivative of the replayed Runge-Kutta map itself.
+fn tangent_replay(phase: &Phase, options: &RadauOptions, t_a: f64, y: &DVector<f64>, grid: &[f64], t_b: f64) -> Result<DMatrix<f64>, SimError> {
+    let dim = y.len();
+    let n = phase.n();
+    let dv0 = phase.contact != Contact::Open && phase.onset_speed > 0.0;
+    let cols = 2 * n + 1;
+    let mut start = vec![0.0; dim * (1 + cols)];
+    start[..dim].copy_from_slice(y.as_slice());
+    for k in 0..2 * n {
+        start[dim + k * dim + k] = 1.0;
+    }
+    let (rtol, _) = dop853_tolerances(options, dim);
+    let atol = vec![1.0; start.len()];
+    let omega = phase.model.beam.omega(n);
+    let pieces = |h: f64| ((h * omega / RESOLUTION).ceil() as usize).max(1);
+    let rhs = Tangent { phase: phase.clone(), dim, cols, dv0, y: DVector::zeros(dim), f: DVector::zeros(dim), jac: DMatrix::zeros(dim, dim) };
+    let first = grid.first().copied().unwrap_or(t_b).min(t_b);
+    let h0 = ((first - t_a) / pieces(first - t_a) as f64).max(f64::MIN_POSITIVE);
+    let mut s = Dop853::new(rhs, t_a, &start, f64::MAX, rtol, &atol, Some(h0));
+    let mut t = t_a;
+    let mut ends: Vec<f64> = grid.iter().copied().take_while(|&e| e <= t_b).collect();
+    let last_full = ends.last().copied().unwrap_or(t_a);
+    if last_full < t_b {
+        ends.push(t_b);
+    }
+    for end in ends {
+        let m = pieces(end - t);
+        let last_piece = end == t_b && last_full < t_b;
+        for j in 1..m {
+            s.step_to(t + (end - t) * j as f64 / m as f64);
+        }
+        if last_piece && phase.contact != Contact::Open {
+            // As [`full_order_state`] in contact: pieces shrinking fourfold toward t_b.
+            let (t0, smallest) = (s.t, rtol.powf(2.0 / 7.0));
+            let mut remaining = 1.0;
+            while remaining / 4.0 > smallest {
+                s.step_to(t0 + (1.0 - 0.25 * remaining) * (t_b - t0));
+                remaining *= 0.25;
+            }
+        }
+        s.step_to(end);
+        t = end;
+    }
+    let out = s.y();
+    if !out.iter().all(|v| v.is_finite()) {
+        return Err(SimError::Integration { time: t_b, message: "the flow's Jacobian: a replayed step is not finite".into() });
+    }
+    let v = nalgebra::DMatrixView::from_slice(&out[dim..], dim, cols);
+    let mut m = DMatrix::zeros(2 * n + 1, 2 * n + 1);
+    m.view_mut((0, 0), (2 * n, 2 * n)).copy_from(&v.view((0, 0), (2 * n, 2 * n)));
+    if dv0 {
+        m.view_mut((0, 2 * n), (2 * n, 1)).copy_from(&v.view((0, 2 * n), (2 * n, 1)));
+    }
+    m[(2 * n, 2 * n)] = 1.0;
+    Ok(m)
+}
+
 /// The transition matrix of one phase for `[x; v0]` ((2N+1) x (2N+1)) by
-/// central differences of its replay (module doc).
-fn phase_transition(phase: &Phase, options: &RadauOptions, t_a: f64, y_a: &DVector<f64>, grid: &[f64], t_b: f64) -> Result<DMatrix<f64>, SimError> {
+/// central differences of its replay: the variational replay's check.
+#[cfg(test)]
+fn phase_transition_by_differences(phase: &Phase, options: &RadauOptions, t_a: f64, y_a: &DVector<f64>, grid: &[f64], t_b: f64) -> Result<DMatrix<f64>, SimError> {
     let n = phase.n();
     let dim = 2 * n;
     let scale_q = y_a.rows(0, n).amax();
@@ -300,4 +413,42 @@ fn phase_transition(phase: &Phase, options: &RadauOptions, t_a: f64, y_a: &DVect
     }
     m[(dim, dim)] = 1.0;
     Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::kinds::rotating::{RotatingModel, RotatingSpec};
+
+    /// The variational replay against central differences of the replay
+    /// itself, phase by phase over TappingArm's strike (free flight, the
+    /// push with its onset-speed column, free flight again).
+    #[test]
+    fn variational_replay_matches_differences_of_the_replay() {
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/tapping_arm.json")).unwrap();
+        let model = Arc::new(RotatingModel::new(&RotatingSpec::from_json(&text).unwrap()).unwrap());
+        let mut sim = RotatingSimulation::new(model, 0.0).unwrap();
+        sim.advance_to(0.1).unwrap();
+        let (t_a, y_a) = (sim.time, sim.current.clone());
+        sim.restart(t_a, y_a, sim.phase.contact).unwrap();
+        let mut phases = 0;
+        while sim.time < 0.13 {
+            let (t_a, y_a, phase) = (sim.time, sim.current.clone(), sim.phase.clone());
+            sim.trace = Some(Vec::new());
+            let reached = sim.advance(0.13, Some(&mut |_| true)).unwrap();
+            let grid = sim.trace.take().unwrap();
+            let options = sim.options.clone();
+            let ours = tangent_replay(&phase, &options, t_a, &y_a, &grid, sim.time).unwrap();
+            let theirs = phase_transition_by_differences(&phase, &options, t_a, &y_a, &grid, sim.time).unwrap();
+            let off = (&ours - &theirs).amax() / theirs.amax();
+            assert!(off < 1e-7, "{:?} phase from {t_a}: {off:e}", phase.contact);
+            phases += 1;
+            if matches!(reached, Reached::Event(_)) {
+                sim.apply_switch().unwrap();
+            }
+        }
+        assert_eq!(phases, 3, "free, pressed, free");
+    }
 }
