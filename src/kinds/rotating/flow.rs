@@ -57,7 +57,9 @@ use nalgebra::{DMatrix, DVector};
 
 use super::model::HubMotion;
 use super::sim::RotatingSimulation;
-use super::stepper::{dop853_tolerances, full_order_state, Method, PhaseRhs};
+use super::stepper::{dop853_tolerances, Method};
+#[cfg(test)]
+use super::stepper::{full_order_state, PhaseRhs};
 use super::system::Phase;
 use crate::contact::Contact;
 use crate::error::SimError;
@@ -241,7 +243,9 @@ fn field(phase: &Phase, t: f64, y: &DVector<f64>) -> Result<DVector<f64>, SimErr
 
 /// The nominal phase's steps (ends `grid`) from `(t_a, y)` replayed to
 /// `t_b` (module doc): DOP853 without error control, each step split into
-/// pieces of at most [`RESOLUTION`] radians of the highest mode.
+/// pieces of at most [`RESOLUTION`] radians of the highest mode (the
+/// variational replay's check).
+#[cfg(test)]
 fn replay(phase: &Phase, options: &RadauOptions, t_a: f64, y: &DVector<f64>, grid: &[f64], t_b: f64) -> Result<DVector<f64>, SimError> {
     let n = y.len();
     let (rtol, atol) = dop853_tolerances(options, n);
