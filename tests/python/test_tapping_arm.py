@@ -4,17 +4,21 @@ an independent model of the same equations (tapping_arm_reference.py:
 modes from the characteristic equation, integrals by quadrature, scipy's
 DOP853). At the scene's tolerance (1e-10) the two agree on the onset and
 separation times to 1e-12 s and on the tip's deflection after the strike to
-1e-9 of its size."""
+1e-9 of its size. A swing beyond its ranges (A Omega past the speed limit
+included) is refused naming the field, its value and the allowed range."""
 
 import json
 
 import numpy as np
+import pytest
 from fmpy import simulate_fmu
 
 from conftest import ROOT
 from tapping_arm_reference import Model
+from test_rotating_fmu import Unit
 
 SCENE = json.loads((ROOT / "scenes" / "tapping_arm.json").read_text())
+FMU2 = ROOT / "target" / "fmu" / "TappingArm.fmu"
 FMU3 = ROOT / "target" / "fmu3" / "TappingArm.fmu"
 
 
@@ -37,3 +41,21 @@ def test_first_strike_matches_an_independent_model():
     assert abs(onsets[0] - ref["onset"]) < 1e-12, (onsets[0], ref["onset"])
     assert abs(ends[0] - ref["separation"]) < 1e-12, (ends[0], ref["separation"])
     assert abs(r["tip.w"][-1] - ref["tip_w"]) < 1e-9 * abs(ref["tip_w"]), (r["tip.w"][-1], ref["tip_w"])
+
+
+@pytest.mark.parametrize("name, value, words", [
+    ("Omega", 400.0, ["hub.prescribed.Omega = 400.0", "A Omega = 120.0", "(0, 292.5"]),
+    ("A", -1.0, ["'A' = -1.0", "[0, 10000]"]),
+    ("Omega", 0.0, ["'Omega' = 0.0", "(0, 8775.7"])])
+def test_a_swing_beyond_its_ranges_is_refused_naming_the_field(name, value, words):
+    u = Unit(FMU2)
+    u.slave.setupExperiment(startTime=0.0)
+    u.slave.enterInitializationMode()
+    u.log.clear()
+    with pytest.raises(Exception):
+        u.set(name, value)
+    message = " ".join(u.log.errors())
+    assert all(w in message for w in words), message
+    u.slave.exitInitializationMode()  # the refused value changed nothing
+    assert u.get(name) == float(u.vars[name].start)
+    u.close()
