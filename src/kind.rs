@@ -176,8 +176,10 @@ pub trait Run: Send + fmt::Debug + AnyRun {
     fn encode(&self, w: &mut Writer);
     /// Work counters since the start.
     fn work(&self) -> Work;
-    /// The exact flow of a closed-form kind, for shooting and continuation
-    /// (`None`: the kind integrates, and its flow has no exact Jacobian).
+    /// The run as a map of its state with the map's Jacobian, for shooting
+    /// and continuation: exact for a closed-form kind, the integration's
+    /// own for the rotating beam under a periodic swing
+    /// ([`crate::kinds::rotating::flow`]); `None` where the run has none.
     fn flow(&mut self) -> Option<&mut dyn Flow> {
         None
     }
