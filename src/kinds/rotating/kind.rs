@@ -6,7 +6,9 @@ use std::sync::{Arc, OnceLock};
 use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
-use crate::kind::{Clearance, EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Surface, Work};
+#[cfg(feature = "tools")]
+use crate::kind::{Clearance, Flow, Surface};
+use crate::kind::{EventClass, EventRecord, Kind, Reached, Run, Scene, SimError, Work};
 use crate::kinds::rotating::interface::{self, RotatingOutput};
 use crate::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use crate::variables::{Experiment, Value, Variables};
@@ -92,6 +94,7 @@ impl Scene for RotatingScene {
         Ok(Box::new(RotatingRun { sim, outputs: self.outputs.clone() }))
     }
 
+    #[cfg(feature = "tools")]
     fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let model = self.model().map_err(SimError::Scene)?;
         // What a state is started from for: shooting, which needs the flow.
@@ -189,6 +192,7 @@ impl Run for RotatingRun {
 
     /// A periodically swinging hub's runs are maps of `[B; B']`
     /// ([`crate::kinds::rotating::flow`]); the others have none.
+    #[cfg(feature = "tools")]
     fn flow(&mut self) -> Option<&mut dyn Flow> {
         if self.sim.flow_unsupported().is_some() {
             return None;
@@ -197,6 +201,7 @@ impl Run for RotatingRun {
     }
 }
 
+#[cfg(feature = "tools")]
 impl Flow for RotatingRun {
     fn state(&self) -> nalgebra::DVector<f64> {
         self.sim.flow_state()

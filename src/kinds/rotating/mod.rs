@@ -26,6 +26,8 @@
 mod kind;
 pub mod codec;
 pub mod events;
+// The flow map serves the orbits tool only: FMU binaries leave it out.
+#[cfg(feature = "tools")]
 pub mod flow;
 pub mod interface;
 pub mod model;

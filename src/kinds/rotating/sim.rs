@@ -332,6 +332,7 @@ impl RotatingSimulation {
         self.stats.accepted += 1;
         self.steps_since_anchor += 1;
         if let Some(trace) = &mut self.trace {
+            // Only the flow's Jacobian (the orbits tool) sets it.
             trace.push(b);
         }
         if self.phase.contact != Contact::Open {
