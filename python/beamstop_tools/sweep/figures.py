@@ -491,8 +491,9 @@ def tapping_orbits(client):
     from .. import orbits as orb
     # Omega 12 .. 16: one strike per swing at the default, two from about
     # 15 on. The state at the section turns with the phase of the ringing
-    # after the strike (about omega_1 / Omega^2 * 2 pi rad per rad/s), so
-    # the branch is long in the state: many points per unit of Omega.
+    # after the strike (omega_1 t_s / Omega rad per rad/s, t_s the time from
+    # the strike to the section: about 3), so the branch is long in the
+    # state: many points per unit of Omega.
     lo, hi = (11.9, 12.1) if QUICK else (12.0, 16.0)
     points = 3 if QUICK else 41
     info = read_fmu(FMU / "TappingArm.fmu")
