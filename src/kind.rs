@@ -176,9 +176,11 @@ pub trait Run: Send + fmt::Debug + AnyRun {
     fn encode(&self, w: &mut Writer);
     /// Work counters since the start.
     fn work(&self) -> Work;
-    /// The flow as a map of the state with its Jacobian, for shooting and
-    /// continuation (exact for closed-form phases, the integrator's own
-    /// map's for integrated ones; `None`: the kind or a stop's law has none).
+    /// The run as a map of its state with the map's Jacobian, for shooting
+    /// and continuation: exact for closed-form phases, the integrator's own
+    /// map's for integrated ones (the modal kind's Hertz phases, the
+    /// rotating beam under a periodic swing: [`crate::kinds::rotating::flow`]);
+    /// `None` where the run or a stop's law has none.
     fn flow(&mut self) -> Option<&mut dyn Flow> {
         None
     }

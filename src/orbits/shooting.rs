@@ -135,11 +135,23 @@ pub fn onto_stops(scene: &Component, t0: f64, x: &DVector<f64>) -> Option<DVecto
     moved.then_some(on)
 }
 
+/// Advances `run` to `t_end` by at most `period` per advance: a scene's
+/// work cap bounds one advance (an integrated kind's, its integration
+/// steps), not the transient or the orbit it is part of.
+pub(crate) fn advance_by_periods(run: &mut dyn Run, t_end: f64, period: f64) -> Result<(), String> {
+    while run.time() < t_end {
+        let next = if period > 0.0 { (run.time() + period).min(t_end) } else { t_end };
+        let next = if next <= run.time() { t_end } else { next };
+        run.advance_to(next).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
 /// The state after `periods` periods from the scene's own initial state at
 /// `t0`: a guess past the transient.
 pub fn strobe(scene: &Component, t0: f64, period: f64, periods: usize) -> Result<DVector<f64>, String> {
     let mut run = scene.start(t0, &vec![0.0; scene.inputs().len()])?;
-    advance_by_periods(run.as_mut(), t0, period, periods)?;
+    advance_by_periods(run.as_mut(), t0 + periods as f64 * period, period)?;
     let flow = run.flow().ok_or("the scene's kind has no exact flow")?;
     Ok(flow.state())
 }
@@ -203,16 +215,4 @@ pub fn minimal_period(scene: &Component, orbit: Orbit, forcing_period: f64, sett
         }
     }
     Ok(orbit)
-}
-
-/// Advances `run` (at `t0`) by `periods` forcing periods of `period`, one
-/// advance per period, as a master's communication steps would: the work
-/// cap of one advance then bounds one period, not a whole transient (an
-/// integrated contact's steps weigh more than a closed-form kind's event
-/// search). The trajectory does not depend on the advances' ends.
-pub fn advance_by_periods(run: &mut dyn Run, t0: f64, period: f64, periods: usize) -> Result<(), String> {
-    for k in 1..=periods {
-        run.advance_to(t0 + k as f64 * period).map_err(|e| e.to_string())?;
-    }
-    Ok(())
 }

@@ -18,6 +18,7 @@ mod restores;
 mod robustness;
 mod rollback;
 mod rotating;
+mod rotating_flow;
 mod scene_physics;
 mod scenes;
 mod stability;

@@ -300,7 +300,7 @@ fn a_run_from_a_state_refuses_what_it_cannot_start_from() {
     // Inside the stop: refused as the scene's own initial state would be.
     let inside = start_from(&scene, 0.0, &DVector::from_vec(vec![1.5, 0.0])).unwrap_err();
     assert!(inside.contains("penetrates"), "{inside}");
-    // The rotating beam is integrated: no exact flow to shoot with.
+    // The torque-driven rotating beam has no periodic drive: no flow to shoot with.
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/rotating_beam.json")).unwrap();
     let rotating = Component::from_json(&text).unwrap();
     let refused = start_from(&rotating, 0.0, &DVector::zeros(4)).unwrap_err();

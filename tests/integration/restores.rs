@@ -245,3 +245,10 @@ fn rotating_beam() {
 fn spin_up() {
     report("spin_up", &three(0.01, 100, 0.0), Change::None, &["free"]);
 }
+
+/// The swinging hub through its strike (onset at 0.113 s, separation at
+/// 0.125 s) and on into the next swing.
+#[test]
+fn tapping_arm() {
+    report("tapping_arm", &[(2e-3, 65, 0.0), (1e-4, 60, 0.112), (0.02, 10, 0.0)], Change::None, &["free", "pressed"]);
+}

@@ -108,7 +108,8 @@ FLAGS = [(False, False), (False, True), (True, False), (True, True)]  # (eventMo
 # separation; PinnedBeamStop starts stuck, events at 3.18 and from 6.377
 # on; RotatingBeamImpact 9e-5, 5.8e-4, 6.7e-4, 1.29e-3;
 # SteelCantileverStop from 0.0433; WaggBishopCantilever1/4 22.235, 23.92;
-# WaggBishopChain 1.563, 8.02, 14.59; SpinUpBeam has no stop). --quick
+# WaggBishopChain 1.563, 8.02, 14.59; SpinUpBeam has no stop; TappingArm
+# 0.1133 onset, 0.1248 separation). --quick
 # saves before steps 0..9, before the 10 steps from each step that sets an
 # input and before every step from the third number on; the full sweep
 # before every step.
@@ -121,6 +122,7 @@ HORIZON = {
     "SpringStopSoft": (0.1, 0.0835, 0.0820),
     "SpringStopVeryHard": (0.075, 0.0722, 0.0700),
     "SteelCantileverStop": (0.1, 0.048, 0.0),
+    "TappingArm": (0.13, 0.116, 0.112),
     "WaggBishopCantilever1": (24.0, 22.4, 22.1),
     "WaggBishopCantilever4": (24.0, 22.4, 22.1),
     "WaggBishopChain": (15.0, 1.8, 0.0),

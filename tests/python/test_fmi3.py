@@ -42,6 +42,7 @@ HORIZON = {
     "SpringStopSoft": 0.1,
     "SpringStopVeryHard": 0.1,
     "SteelCantileverStop": 0.3,
+    "TappingArm": 0.3,
     "WaggBishopCantilever1": 30.0,
     "WaggBishopCantilever4": 30.0,
     "WaggBishopChain": 30.0,

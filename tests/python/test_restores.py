@@ -28,6 +28,7 @@ RUNS = {
     "HertzStop": ((2e-4, 5e-4, 1e-3), 120, ("stop.e", 0.6)),
     "RotatingBeamImpact": ((1e-5, 1e-4, 1e-3), 30, ("torque", 1.0)),
     "SpinUpBeam": ((0.01, 0.1, 1.0), 30, None),
+    "TappingArm": ((0.01, 0.02, 0.05), 12, None),
 }
 
 

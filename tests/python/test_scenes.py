@@ -25,6 +25,7 @@ SCENES = {
     "HertzStop": "hertz_stop",
     "RotatingBeamImpact": "rotating_beam",
     "SpinUpBeam": "spin_up",
+    "TappingArm": "tapping_arm",
 }
 
 def modal(n, *patterns):
@@ -71,6 +72,9 @@ ROTATING_OUTPUTS = {"theta", "theta_dot", "tip.w", "tip.x", "tip.y", "root.M", "
 EXPECTED["RotatingBeamImpact"] = {"J_h", "K", "e", "theta0", "theta_dot0", "torque", "solver.tolerance"} | ROTATING_OUTPUTS | {
     f"stop.{o}" for o in ("force", "penetration", "contact", "contacts", "impulse", "E_dissipated")}
 EXPECTED["SpinUpBeam"] = {"J_h", "theta0", "omega_s", "T", "hub.torque", "solver.tolerance"} | ROTATING_OUTPUTS
+# The tapping arm: a swinging hub (theta0 + A sin(Omega t)), damped modes, a Hertz surface.
+EXPECTED["TappingArm"] = {"J_h", "K", "e", "zeta", "theta0", "A", "Omega", "hub.torque", "solver.tolerance"} | ROTATING_OUTPUTS | {
+    f"stop.{o}" for o in ("force", "penetration", "contact", "contacts", "impulse", "E_dissipated")}
 
 SI_UNITS = {"tip.w": "m", "tip.v": "m/s", "clamp.M": "N.m", "stop.lambda": "N", "stop.t_last_impact": "s",
             "shaker.amplitude": "m/s2", "shaker.omega": "rad/s", "force": "N", "a_clamp": "m/s2",

@@ -170,6 +170,7 @@ impl RotatingSimulation {
             events: Vec::new(),
             stats: RotatingStats::default(),
             steps_since_anchor: 0,
+            trace: None,
         };
         sim.start_phase().map_err(|e| format!("rotating state: {e}"))?;
         // Replay: the steps the run took from its anchor up to its time.

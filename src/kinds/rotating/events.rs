@@ -135,7 +135,7 @@ impl<'a> StepCurve<'a> {
         match self.phase.model.prescribed() {
             None => self.solver.speed_bound(gradient.as_slice()),
             Some(p) => {
-                let hub = gradient[0].abs() * zd[0].abs().max(p.at(self.t1).1.abs());
+                let hub = gradient[0].abs() * zd[0].abs().max(p.speed_bound(self.t0, self.t1));
                 self.solver.speed_bound(&gradient.as_slice()[1..]).map(|b| b + 1.5 * hub)
             }
         }

@@ -66,6 +66,22 @@ pub fn parameters(spec: &RotatingSpec) -> Vec<Parameter> {
             );
             push("T", "hub.prescribed.T", "Duration of the spin-up".into(), Unit::Second, spec.spin_duration_range());
         }
+        HubDrive::Prescribed(Profile::Harmonic { .. }) => {
+            push(
+                "A",
+                "hub.prescribed.A",
+                "Amplitude of the hub's swing theta = theta0 + A sin(Omega t) (A Omega within the speed limit)".into(),
+                Unit::Radian,
+                spec.swing_amplitude_range(),
+            );
+            push(
+                "Omega",
+                "hub.prescribed.Omega",
+                "Frequency of the hub's swing theta = theta0 + A sin(Omega t); its speed at t = 0 is A Omega".into(),
+                Unit::RadianPerSecond,
+                spec.swing_frequency_range(),
+            );
+        }
     }
     push(
         "solver.tolerance",

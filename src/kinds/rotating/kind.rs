@@ -6,6 +6,8 @@ use std::sync::{Arc, OnceLock};
 use serde_json::Value as Json;
 
 use crate::codec::{Reader, Writer};
+#[cfg(feature = "tools")]
+use crate::kind::{Clearance, Flow, Surface};
 use crate::kind::{EventClass, EventRecord, Kind, Reached, Run, Scene, SimError, Work};
 use crate::kinds::rotating::interface::{self, RotatingOutput};
 use crate::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
@@ -92,6 +94,30 @@ impl Scene for RotatingScene {
         Ok(Box::new(RotatingRun { sim, outputs: self.outputs.clone() }))
     }
 
+    #[cfg(feature = "tools")]
+    fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
+        let model = self.model().map_err(SimError::Scene)?;
+        // What a state is started from for: shooting, which needs the flow.
+        if let Some(why) = crate::kinds::rotating::flow::flow_unsupported(&model) {
+            return Err(SimError::Unsupported(format!("a run from a given state is for shooting, which needs an exact flow: {why}")));
+        }
+        let n = model.n_modes();
+        if state.len() != 2 * n {
+            return Err(SimError::Unsupported(format!("a state of {} coordinates for a beam of {n} modes ([B; B'] has {})", state.len(), 2 * n)));
+        }
+        if let Some(bad) = state.iter().find(|v| !v.is_finite()) {
+            return Err(SimError::Unsupported(format!("a state with the coordinate {bad}: it must be finite")));
+        }
+        let mut model = (*model).clone();
+        model.initial_z.rows_mut(1, n).copy_from_slice(&state[..n]);
+        model.initial_zd.rows_mut(1, n).copy_from_slice(&state[n..]);
+        let mut sim = RotatingSimulation::new(Arc::new(model), start_time)?;
+        if let Some(&torque) = inputs.first() {
+            sim.set_torque(torque)?;
+        }
+        Ok(Box::new(RotatingRun { sim, outputs: self.outputs.clone() }))
+    }
+
     fn decode(&self, inputs: &[f64], r: &mut Reader) -> Result<Box<dyn Run>, String> {
         let sim = RotatingSimulation::decode(self.model()?, r)?;
         let torque = inputs.first().copied().unwrap_or(0.0);
@@ -162,5 +188,34 @@ impl Run for RotatingRun {
         let stats = self.sim.stats();
         let model = self.sim.model();
         Work { events: stats.events, units: stats.accepted, unit: "integration steps", cap: model.spec.solver.step_budget(model.n_modes()) }
+    }
+
+    /// A periodically swinging hub's runs are maps of `[B; B']`
+    /// ([`crate::kinds::rotating::flow`]); the others have none.
+    #[cfg(feature = "tools")]
+    fn flow(&mut self) -> Option<&mut dyn Flow> {
+        if self.sim.flow_unsupported().is_some() {
+            return None;
+        }
+        Some(self)
+    }
+}
+
+#[cfg(feature = "tools")]
+impl Flow for RotatingRun {
+    fn state(&self) -> nalgebra::DVector<f64> {
+        self.sim.flow_state()
+    }
+
+    fn advance_with_jacobian(&mut self, t: f64) -> Result<nalgebra::DMatrix<f64>, SimError> {
+        self.sim.advance_with_jacobian(t)
+    }
+
+    fn clearances(&self) -> Vec<Clearance> {
+        self.sim.flow_clearances()
+    }
+
+    fn surfaces(&self) -> Vec<Surface> {
+        self.sim.flow_surfaces()
     }
 }

@@ -14,6 +14,8 @@
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
 //!   outputs;
 //! - [`codec`]: the run's versioned encoding, replayed on decode;
+//! - [`flow`]: a run with a periodically prescribed hub as a map of its
+//!   modal state, and that map's Jacobian (periodic orbits);
 //! - [`interface`]: the scene's parameters, input and outputs;
 //! - `kind`: the contract's side ([`RotatingKind`], [`RotatingRun`]).
 //!
@@ -24,6 +26,9 @@
 mod kind;
 pub mod codec;
 pub mod events;
+// The flow map serves the orbits tool only: FMU binaries leave it out.
+#[cfg(feature = "tools")]
+pub mod flow;
 pub mod interface;
 pub mod model;
 pub mod sim;
@@ -32,7 +37,7 @@ pub mod stepper;
 pub mod system;
 
 pub use codec::ROTATING_STATE_VERSION;
-pub use model::{RotatingModel, SpinUp};
+pub use model::{HubMotion, RotatingModel, SpinUp, Swing};
 pub use sim::{RotatingEvent, RotatingEventKind, RotatingSimulation, RotatingStats};
 pub use spec::RotatingSpec;
 

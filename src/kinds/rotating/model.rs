@@ -40,10 +40,61 @@ impl SpinUp {
     }
 }
 
+/// A harmonic swing `theta(t) = theta0 + A sin(Omega t)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Swing {
+    pub theta0: f64,
+    pub amplitude: f64,
+    pub omega: f64,
+}
+
+impl Swing {
+    /// `(theta, theta', theta'')` at `t`.
+    pub fn at(&self, t: f64) -> (f64, f64, f64) {
+        let (s, c) = (self.omega * t).sin_cos();
+        let (a, w) = (self.amplitude, self.omega);
+        (self.theta0 + a * s, a * w * c, -a * w * w * s)
+    }
+}
+
+/// A prescribed hub motion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HubMotion {
+    SpinUp(SpinUp),
+    Swing(Swing),
+}
+
+impl HubMotion {
+    /// `(theta, theta', theta'')` at `t`.
+    pub fn at(&self, t: f64) -> (f64, f64, f64) {
+        match self {
+            HubMotion::SpinUp(p) => p.at(t),
+            HubMotion::Swing(p) => p.at(t),
+        }
+    }
+
+    /// A bound on `|theta'|` over `[t0, t1]` (the spin-up's speed is
+    /// monotone, a swing's at most `A Omega`).
+    pub fn speed_bound(&self, t0: f64, t1: f64) -> f64 {
+        match self {
+            HubMotion::SpinUp(p) => p.at(t0).1.abs().max(p.at(t1).1.abs()),
+            HubMotion::Swing(p) => (p.amplitude * p.omega).abs(),
+        }
+    }
+
+    /// The motion's period, if it is periodic (a swing's `2 pi / Omega`).
+    pub fn period(&self) -> Option<f64> {
+        match self {
+            HubMotion::SpinUp(_) => None,
+            HubMotion::Swing(p) => Some(TAU / p.omega),
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Drive {
     Torque,
-    Prescribed(SpinUp),
+    Prescribed(HubMotion),
 }
 
 #[derive(Clone, Debug)]
@@ -94,7 +145,12 @@ impl RotatingModel {
         };
         let drive = match spec.hub {
             HubDrive::Torque => Drive::Torque,
-            HubDrive::Prescribed(Profile::SpinUp { omega_s, duration }) => Drive::Prescribed(SpinUp { theta0: spec.initial.theta, omega_s, duration }),
+            HubDrive::Prescribed(Profile::SpinUp { omega_s, duration }) => {
+                Drive::Prescribed(HubMotion::SpinUp(SpinUp { theta0: spec.initial.theta, omega_s, duration }))
+            }
+            HubDrive::Prescribed(Profile::Harmonic { amplitude, omega }) => {
+                Drive::Prescribed(HubMotion::Swing(Swing { theta0: spec.initial.theta, amplitude, omega }))
+            }
         };
         let (m_minus_d, c_tip, s_geo) = match order {
             Order::First => (&beam.m - &beam.d, beam.c_l.clone(), beam.s.clone()),
@@ -116,7 +172,7 @@ impl RotatingModel {
         self.beam.n_modes()
     }
 
-    pub fn prescribed(&self) -> Option<SpinUp> {
+    pub fn prescribed(&self) -> Option<HubMotion> {
         match self.drive {
             Drive::Prescribed(p) => Some(p),
             Drive::Torque => None,
@@ -202,5 +258,19 @@ mod tests {
         }
         assert_eq!(p.at(0.0), (0.3, 0.0, 0.0));
         assert_eq!(p.at(30.0).1, 6.0);
+    }
+
+    #[test]
+    fn swing_profile_is_consistent() {
+        let p = Swing { theta0: -0.2, amplitude: 0.3, omega: 12.0 };
+        for t in [0.0, 0.05, 0.13, 0.4, 1.7] {
+            let h = 1e-5;
+            let (a, b) = (p.at(t - h), p.at(t + h));
+            let (_, thd, thdd) = p.at(t);
+            assert!(((b.0 - a.0) / (2.0 * h) - thd).abs() < 1e-8, "theta' at {t}");
+            assert!(((b.1 - a.1) / (2.0 * h) - thdd).abs() < 1e-6, "theta'' at {t}");
+        }
+        assert_eq!(p.at(0.0), (-0.2, 0.3 * 12.0, 0.0));
+        assert_eq!(HubMotion::Swing(p).period(), Some(TAU / 12.0));
     }
 }

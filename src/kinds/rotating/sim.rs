@@ -139,6 +139,9 @@ pub struct RotatingSimulation {
     pub(super) stats: RotatingStats,
     /// Accepted steps since the anchor (bounds the replay on decode).
     pub(super) steps_since_anchor: u64,
+    /// While recorded (the flow's Jacobian, [`super::flow`]): the end of
+    /// every accepted step since the last switch.
+    pub(super) trace: Option<Vec<f64>>,
 }
 
 pub use crate::solve::REANCHOR_AFTER;
@@ -189,6 +192,7 @@ impl RotatingSimulation {
             events: Vec::new(),
             stats: RotatingStats::default(),
             steps_since_anchor: 0,
+            trace: None,
         };
         let mut contact = Contact::Open;
         if let Some(s) = &model.surface {
@@ -327,6 +331,10 @@ impl RotatingSimulation {
             .map_err(|e| integration(t0, format!("{e} (contact {:?})", self.phase.contact)))?;
         self.stats.accepted += 1;
         self.steps_since_anchor += 1;
+        if let Some(trace) = &mut self.trace {
+            // Only the flow's Jacobian (the orbits tool) sets it.
+            trace.push(b);
+        }
         if self.phase.contact != Contact::Open {
             self.stats.contact_steps += 1;
         }

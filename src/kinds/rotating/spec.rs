@@ -16,7 +16,10 @@
 //! `I`, `rho`, `A`. `hub` is `"torque"` (a torque input, 0 until set) or
 //! `{"prescribed": {"type": "spin_up", "omega_s": .., "T": ..}}` (Kane, Ryan &
 //! Banerjee: `theta'(t) = omega_s / T (t - T / (2 pi) sin(2 pi t / T))` for
-//! `t < T`, then `omega_s`; `theta(t) = theta_0 + int_0^t theta'`).
+//! `t < T`, then `omega_s`; `theta(t) = theta_0 + int_0^t theta'`) or
+//! `{"prescribed": {"type": "harmonic", "A": .., "Omega": ..}}` (a swing
+//! `theta(t) = theta_0 + A sin(Omega t)`, `theta'(0) = A Omega`); `theta_0`
+//! is `initial.theta` in both.
 
 use serde::{Deserialize, Serialize};
 
@@ -132,6 +135,14 @@ pub enum Profile {
         #[serde(rename = "T")]
         duration: f64,
     },
+    /// A harmonic swing about `initial.theta`: `theta(t) = theta_0 + A
+    /// sin(Omega t)` (rad, rad/s).
+    Harmonic {
+        #[serde(rename = "A")]
+        amplitude: f64,
+        #[serde(rename = "Omega")]
+        omega: f64,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -233,6 +244,10 @@ pub const GRAVITY_MAX: f64 = 9.81e3;
 /// before any motion shows).
 pub const SPIN_DURATION_MIN_RATIO: f64 = 1e-3;
 pub const SPIN_DURATION_MAX_RATIO: f64 = 1e6;
+/// Swing frequencies of a harmonic hub up to this many times the first
+/// bending frequency (as hub speeds, [`SPEED_LIMIT_RATIO`]): faster, the
+/// forcing outruns every mode a run resolves.
+pub const SWING_FREQUENCY_MAX_RATIO: f64 = 100.0;
 /// Surface damping up to the critical damping of the beam's whole mass on
 /// the highest mode's frequency, times this (as the modal stops).
 pub const DAMPING_MAX_RATIO: f64 = 1e3;
@@ -340,6 +355,17 @@ impl RotatingSpec {
         Range::closed(SPIN_DURATION_MIN_RATIO * period, SPIN_DURATION_MAX_RATIO * period)
     }
 
+    /// Allowed swing amplitudes of a harmonic hub, rad: the angle's range.
+    pub fn swing_amplitude_range(&self) -> Range {
+        Range::closed(0.0, ANGLE_LIMIT)
+    }
+
+    /// Allowed swing frequencies of a harmonic hub, rad/s (the peak speed
+    /// `A Omega` is checked against [`Self::speed_range`] besides).
+    pub fn swing_frequency_range(&self) -> Range {
+        Range { min: 0.0, max: SWING_FREQUENCY_MAX_RATIO * self.first_bending_frequency(), min_open: true, max_open: false }
+    }
+
     /// Checks every field; the message names the field, its value and the allowed range.
     pub fn validate(&self) -> Result<(), String> {
         let check = |range: Range, what: &str, v: f64| range.check(what, v).map_err(|e| format!("rotating scene '{}': {e}", self.name));
@@ -381,6 +407,38 @@ impl RotatingSpec {
                     return fail(format!(
                         "initial.theta_dot = {:?}: a prescribed hub follows its profile (theta_dot(0) = 0 for spin_up); allowed value 0",
                         self.initial.theta_dot
+                    ));
+                }
+            }
+            HubDrive::Prescribed(Profile::Harmonic { amplitude, omega }) => {
+                check(self.hub_inertia_range(), "hub_inertia", self.hub_inertia)?;
+                check(self.swing_amplitude_range(), "hub.prescribed.A", amplitude)?;
+                check(self.swing_frequency_range(), "hub.prescribed.Omega", omega)?;
+                let (theta0, speeds) = (self.initial.theta, self.speed_range());
+                if (theta0.abs() + amplitude).is_finite() && theta0.abs() + amplitude > ANGLE_LIMIT {
+                    return fail(format!(
+                        "hub.prescribed.A = {amplitude:?}: the swing reaches |initial.theta| + A = {:?} rad; allowed range of A \
+                         with initial.theta = {theta0:?} is [0, {:?}] (angles within +-{ANGLE_LIMIT})",
+                        theta0.abs() + amplitude,
+                        (ANGLE_LIMIT - theta0.abs()).max(0.0)
+                    ));
+                }
+                if amplitude * omega > speeds.max {
+                    return fail(format!(
+                        "hub.prescribed.Omega = {omega:?}: the peak hub speed A Omega = {:?} rad/s exceeds the speed limit {:?} rad/s{}; \
+                         allowed range of Omega with A = {amplitude:?} is (0, {:?}]",
+                        amplitude * omega,
+                        speeds.max,
+                        if self.surface.is_some() { " (omega_1 with a surface)" } else { "" },
+                        speeds.max / amplitude
+                    ));
+                }
+                if self.initial.theta_dot != 0.0 {
+                    return fail(format!(
+                        "initial.theta_dot = {:?}: a prescribed hub follows its profile (theta_dot(0) = A Omega = {:?} for harmonic); \
+                         allowed value 0 (leave it out)",
+                        self.initial.theta_dot,
+                        amplitude * omega
                     ));
                 }
             }
@@ -471,5 +529,30 @@ mod tests {
         assert_eq!(s.hub, HubDrive::Prescribed(Profile::SpinUp { omega_s: 6.0, duration: 15.0 }));
         let e = RotatingSpec::from_json(&spin.replace("\"T\": 15", "\"T\": 0")).unwrap_err();
         assert!(e.contains("hub.prescribed.T = 0.0"), "{e}");
+    }
+
+    #[test]
+    fn a_harmonic_hub_is_checked_field_by_field() {
+        let swing = |a: &str, w: &str, initial: &str| {
+            DWZ_SCENE.replace("\"hub_inertia\": 0.05", &format!("\"hub_inertia\": 0, \"hub\": {{\"prescribed\": {{\"type\": \"harmonic\", \"A\": {a}, \"Omega\": {w}}}}}"))
+                .replace("\"theta_dot\": 2.0", initial)
+        };
+        let s = RotatingSpec::from_json(&swing("0.3", "12", "\"theta\": -0.3")).unwrap();
+        assert_eq!(s.hub, HubDrive::Prescribed(Profile::Harmonic { amplitude: 0.3, omega: 12.0 }));
+        // omega_1 = 87.76 rad/s: Omega up to 100 omega_1, A Omega up to omega_1 (a surface).
+        let e = RotatingSpec::from_json(&swing("-0.1", "12", "\"theta\": 0")).unwrap_err();
+        assert!(e.contains("hub.prescribed.A = -0.1") && e.contains("[0, 10000]"), "{e}");
+        let e = RotatingSpec::from_json(&swing("0.3", "0", "\"theta\": 0")).unwrap_err();
+        assert!(e.contains("hub.prescribed.Omega = 0.0") && e.contains("(0, 8775.7"), "{e}");
+        let e = RotatingSpec::from_json(&swing("0.3", "1e5", "\"theta\": 0")).unwrap_err();
+        assert!(e.contains("hub.prescribed.Omega = 100000.0") && e.contains("(0, 8775.7"), "{e}");
+        let e = RotatingSpec::from_json(&swing("2", "50", "\"theta\": 0")).unwrap_err();
+        assert!(e.contains("hub.prescribed.Omega = 50.0") && e.contains("A Omega = 100.0") && e.contains("(0, 43.87"), "{e}");
+        let e = RotatingSpec::from_json(&swing("9999.5", "0.001", "\"theta\": 1")).unwrap_err();
+        assert!(e.contains("hub.prescribed.A = 9999.5") && e.contains("[0, 9999.0]"), "{e}");
+        let e = RotatingSpec::from_json(&swing("0.3", "12", "\"theta_dot\": 3.6")).unwrap_err();
+        assert!(e.contains("initial.theta_dot = 3.6") && e.contains("allowed value 0"), "{e}");
+        let e = RotatingSpec::from_json(&swing("0.3", "12", "\"theta\": 0").replace("\"Omega\"", "\"omega\"")).unwrap_err();
+        assert!(e.contains("unknown field `omega`"), "{e}");
     }
 }

@@ -70,7 +70,7 @@ pub struct PhaseRhs {
 }
 
 impl PhaseRhs {
-    fn new(phase: &Phase, n: usize) -> Self {
+    pub(super) fn new(phase: &Phase, n: usize) -> Self {
         PhaseRhs { phase: phase.clone(), y: DVector::zeros(n), dy: DVector::zeros(n), scratch: AccelerationScratch::default() }
     }
 }
@@ -265,7 +265,7 @@ pub fn full_order_state(method: Method, phase: &Phase, options: &RadauOptions, t
 }
 
 /// DOP853's scalar rtol and per-component atol from the phase's options.
-fn dop853_tolerances(options: &RadauOptions, n: usize) -> (f64, Vec<f64>) {
+pub(super) fn dop853_tolerances(options: &RadauOptions, n: usize) -> (f64, Vec<f64>) {
     let atol = match &options.atol {
         Tol::Scalar(v) => vec![*v; n],
         Tol::Vector(v) => v.as_slice().to_vec(),

@@ -261,7 +261,7 @@ impl Phase {
         Some(out)
     }
 
-    fn fill_jacobian(&self, t: f64, y: &DVector<f64>, jac: &mut DMatrix<f64>) -> Result<(), String> {
+    pub(super) fn fill_jacobian(&self, t: f64, y: &DVector<f64>, jac: &mut DMatrix<f64>) -> Result<(), String> {
         let n = self.n();
         let m = n + 1;
         let model = &self.model;

@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 use nalgebra::{DMatrix, DVector};
 
 use super::super::profile::profile;
-use super::super::shooting::{map, minimal_period, shoot, start_from, Orbit, Shooting};
+use super::super::shooting::{advance_by_periods, map, minimal_period, shoot, start_from, Orbit, Shooting};
 use super::{Continuation, Point};
 use crate::component::Component;
 
@@ -91,7 +91,7 @@ impl Walker {
     /// of forcing periods after which the section repeats to 1e-6).
     pub(super) fn settle(&self, scene: &Component, forcing_period: f64, transient: usize, max_period: usize) -> Result<(DVector<f64>, usize), String> {
         let mut run = scene.start(self.t0, &vec![0.0; scene.inputs().len()])?;
-        crate::orbits::shooting::advance_by_periods(run.as_mut(), self.t0, forcing_period, transient)?;
+        advance_by_periods(run.as_mut(), self.t0 + transient as f64 * forcing_period, forcing_period)?;
         // A scene without an exact flow is refused before (shooting::check_flow).
         let x = run.flow().ok_or("the scene's kind has no exact flow")?.state();
         let mut copy = run.clone();
@@ -123,7 +123,7 @@ impl Walker {
             let mut run = start_from(&s, self.t0, x)?;
             run.set_event_recording(true);
             run.drain_events();
-            run.advance_to(self.t0 + periods as f64 * self.forcing_period(&s)).map_err(|e| e.to_string())?;
+            advance_by_periods(run.as_mut(), self.t0 + periods as f64 * self.forcing_period(&s), self.forcing_period(&s))?;
             let impacts = run.drain_events().iter().filter(|e| e.speed.is_some()).count();
             Ok((run.flow().expect("a kind with an exact flow").state(), impacts))
         };
@@ -190,7 +190,7 @@ impl Walker {
     pub(super) fn residual(&mut self, x: &DVector<f64>, p: f64, periods: usize) -> Result<DVector<f64>, String> {
         let scene = self.scene_at(p)?;
         let mut run = start_from(&scene, self.t0, x)?;
-        run.advance_to(self.t0 + periods as f64 * self.forcing_period(&scene)).map_err(|e| e.to_string())?;
+        advance_by_periods(run.as_mut(), self.t0 + periods as f64 * self.forcing_period(&scene), self.forcing_period(&scene))?;
         self.evaluations += 1;
         Ok(run.flow().expect("a kind with an exact flow").state() - x)
     }

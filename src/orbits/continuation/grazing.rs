@@ -158,7 +158,7 @@ impl Walker {
                 let period = periods as f64 * self.forcing_period(&scene);
                 let simulated = (|| -> Result<DVector<f64>, String> {
                     let mut run = start_from(&scene, self.t0, &grazing.orbit.state)?;
-                    crate::orbits::shooting::advance_by_periods(run.as_mut(), self.t0, period, 100)?;
+                    super::super::shooting::advance_by_periods(run.as_mut(), self.t0 + 100.0 * period, period)?;
                     Ok(run.flow().expect("a kind with an exact flow").state())
                 })();
                 for guess in [Ok(grazing.orbit.state.clone()), simulated] {

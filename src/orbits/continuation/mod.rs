@@ -75,7 +75,8 @@ pub struct Continuation {
     pub max_branches: usize,
     /// The phase of the stroboscopic section.
     pub t0: f64,
-    /// The forcing frequency's parameter (default: the first load's).
+    /// The forcing frequency's parameter (default: the first load's, or a
+    /// swinging hub's `Omega`).
     pub forcing: Option<String>,
     /// Newton's tolerance on `|G| / |x|`.
     pub tolerance: f64,
@@ -230,8 +231,8 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
         None => scene
             .parameters()
             .iter()
-            .position(|p| p.scene_path.starts_with("loads[") && p.scene_path.ends_with(".omega"))
-            .ok_or("the scene has no harmonic load (no loads[k].omega): name the forcing frequency's parameter (--forcing NAME)")?,
+            .position(|p| is_forcing_frequency(&p.scene_path))
+            .ok_or("the scene has no harmonic load (no loads[k].omega) and no swinging hub (no hub.prescribed.Omega): name the forcing frequency's parameter (--forcing NAME)")?,
     };
     let (lo, hi) = (settings.from.min(settings.to), settings.from.max(settings.to));
     if lo >= hi || !lo.is_finite() || !hi.is_finite() {
@@ -349,6 +350,12 @@ fn follow_restarts(walker: &mut Walker, diagram: &mut Diagram, max_branches: usi
         diagram.branches.push(branch);
     }
     Ok(())
+}
+
+/// Whether a parameter (by its scene path) is a periodic drive's
+/// frequency: a harmonic load's `omega`, a harmonic hub swing's `Omega`.
+fn is_forcing_frequency(scene_path: &str) -> bool {
+    (scene_path.starts_with("loads[") && scene_path.ends_with(".omega")) || scene_path == "hub.prescribed.Omega"
 }
 
 /// The special points of branch `index`.
