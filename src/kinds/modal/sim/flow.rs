@@ -90,12 +90,20 @@ impl Simulation {
         // started from (an integrated phase's hysteretic damping scales
         // with it; see flow_integrated.rs): zero until an onset sets it.
         let mut onset = DMatrix::zeros(self.model.stops.len(), dim);
+        // Whether a phase starts at an event (an integrated replay grades
+        // its first piece then).
+        #[cfg(feature = "power-law")]
         let mut after_event = false;
         loop {
             let (t0, x0) = (self.state.time, self.state.current.clone());
             let before = self.clone();
-            self.flow_trace = self.integrated_step_end().map(|t| vec![t]).or(Some(Vec::new()));
+            // An integrated phase's step ends, for its replay.
+            #[cfg(feature = "power-law")]
+            {
+                self.flow_trace = self.integrated_step_end().map(|t| vec![t]).or(Some(Vec::new()));
+            }
             let reached = self.advance(t_end, Some(&mut |_| true));
+            #[cfg(feature = "power-law")]
             let trace = self.flow_trace.take().unwrap_or_default();
             let reached = reached?;
             let t1 = self.state.time;
@@ -113,14 +121,16 @@ impl Simulation {
                 }
                 #[cfg(not(feature = "power-law"))]
                 {
-                    let _ = &trace;
                     m = before.phase_transition(t0, &x0, t1)? * m;
                 }
             }
             match reached {
                 Reached::Time => return Ok(m),
                 Reached::Event(_) => {
-                    after_event = true;
+                    #[cfg(feature = "power-law")]
+                    {
+                        after_event = true;
+                    }
                     let contacts: Vec<_> = self.state.stops.iter().map(|s| s.contact).collect();
                     let (s, onsets) = self.apply_events_with_saltation()?;
                     let stuck = |sim: &Self| sim.state.stops.iter().map(|s| s.contact).eq(contacts.iter().copied()) && sim.state.anchor_time < t1;

@@ -101,6 +101,7 @@ pub struct Simulation {
     event_work: Option<Box<EventWork>>,
     /// While a flow's Jacobian is formed: the ends of the integrated
     /// steps taken (derived, never part of the state).
+    #[cfg(feature = "power-law")]
     flow_trace: Option<Vec<f64>>,
 }
 
@@ -213,6 +214,7 @@ impl Simulation {
             basis_changed: false,
             transfer_system: None,
             event_work: None,
+            #[cfg(feature = "power-law")]
             flow_trace: None,
         };
         sim.rebuild_segment()?;
