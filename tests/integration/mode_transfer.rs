@@ -95,3 +95,48 @@ fn mode_transfer_states_restore_and_steps_do_not_matter() {
         assert!((a - b).abs() < 1e-12 * 1e-3, "{method:?}: {a} vs {b}");
     }
 }
+
+/// The structure's motion in its own modes (`[q; q']`, `field()`) at
+/// forcing periods `first .. first + 2` of a run from rest.
+fn strobe(scene: &Scene, first: usize) -> Vec<nalgebra::DVector<f64>> {
+    // The scene's shaker: 1.3 omega_1.
+    let period = 2.0 * std::f64::consts::PI / 136.49234534301007;
+    let mut sim = Simulation::new(Model::build(scene).unwrap(), 0.0).unwrap();
+    (first..first + 3)
+        .map(|k| {
+            sim.advance_to(k as f64 * period).unwrap();
+            let f = sim.field();
+            nalgebra::DVector::from_iterator(2 * f.q.len(), f.q.iter().chain(f.qd.iter()).copied())
+        })
+        .collect()
+}
+
+#[test]
+fn rmtm_drifts_where_fim_and_mtm_settle_on_a_periodic_orbit() {
+    // RMTM keeps the displacement at each switch as a frozen shape: the
+    // free phase's increment `q` in the structure's modes (c += q), the
+    // contact phase's `p` in the tip-spring modes (d += p). The free
+    // dynamics see `c + T^T d`, the contact dynamics `T c + d`; with
+    // truncated bases `T T^T != I`, so when the first is periodic the
+    // second moves by `(T - T^-T) q` every period: RMTM has no periodic
+    // orbit, and `beamstop orbits` refuses it. FIM and MTM repeat.
+    let modal = TransferDamping::Modal;
+    let change = |method, n, first| {
+        let s = strobe(&hard(method, n, modal), first);
+        ((&s[1] - &s[0]).amax() / s[0].amax(), (&s[2] - &s[1]).amax() / s[0].amax())
+    };
+    for method in [ContactMethod::Fim, ContactMethod::Mtm] {
+        let (a, b) = change(method, 20, 300);
+        assert!(a < 1e-12 && b < 1e-12, "{method:?}: {a:e} {b:e}");
+    }
+    // The same change in every period, shrinking with the bases' truncation.
+    let mut drift = Vec::new();
+    for n in [10, 20] {
+        let (a, b) = change(ContactMethod::Rmtm, n, 300);
+        let (c, _) = change(ContactMethod::Rmtm, n, 200);
+        assert!((a - b).abs() < 0.02 * a && (a - c).abs() < 0.05 * a, "RMTM, {n} modes: {c:e} at 200, {a:e} {b:e} at 300");
+        drift.push(a);
+    }
+    eprintln!("RMTM's change per period, 10 and 20 modes: {drift:?}");
+    assert!(drift[1] > 1e-9 && drift[1] < drift[0] / 10.0, "{drift:?}");
+}

@@ -454,6 +454,33 @@ fn the_chain_reports_both_grazings_and_follows_the_smooth_orbits_between() {
 }
 
 #[test]
+fn the_chain_between_its_grazings_is_covered_from_the_middle() {
+    // Between the grazings at omega = 1.1352 and 1.3379 the linear orbit
+    // passes the stop, and Newton finds no impacting orbit beyond either
+    // grazing (past the first, a period-adding cascade accumulates on it).
+    // Without starts, after FROM and TO, a transient in the middle of
+    // that stretch starts the orbits with one impact every two periods.
+    let mut settings = Continuation::new("A1.omega", 1.0, 1.6);
+    settings.max_branches = 3;
+    let d = continue_orbits(&chain3(), &settings).unwrap();
+    let spans: Vec<(usize, f64, f64)> = d
+        .branches
+        .iter()
+        .map(|b| (b.periods, b.points.iter().map(|p| p.param).fold(f64::INFINITY, f64::min), b.points.iter().map(|p| p.param).fold(f64::NEG_INFINITY, f64::max)))
+        .collect();
+    let grazings = [chain3_grazing(1.1, 1.2), chain3_grazing(1.3, 1.4)];
+    assert!(spans.iter().any(|&(m, a, z)| m == 1 && a == 1.0 && (z - grazings[0]).abs() < 1e-8), "{spans:?}");
+    assert!(spans.iter().any(|&(m, a, z)| m == 1 && z == 1.6 && (a - grazings[1]).abs() < 1e-8), "{spans:?}");
+    let middle = d.branches.iter().find(|b| b.periods == 2).expect("a branch of period 2");
+    let at = |w: f64| middle.points.iter().min_by(|a, b| (a.param - w).abs().total_cmp(&(b.param - w).abs())).unwrap();
+    for w in [1.2, 1.25, 1.3, 1.34] {
+        let p = at(w);
+        assert!((p.param - w).abs() < 0.01 && p.profile.impacts == 1, "near {w}: {} with {} impacts", p.param, p.profile.impacts);
+    }
+    assert!(middle.points.iter().any(|p| p.orbit.stable()) && middle.points.iter().any(|p| !p.orbit.stable()));
+}
+
+#[test]
 fn steps_follow_the_orbits_size_to_the_grazing() {
     // A clamped-clamped beam against a spring stop: its orbit grows eleven
     // times from omega = 10 to the grazing at 20.83. Scaled by the first

@@ -18,7 +18,8 @@ pub const USAGE: &str = "  beamstop orbits SCENE.json --param NAME=FROM:TO [--st
                  [--transient PERIODS] [--max-period M]
                  [--max-branches B] [--phase T0] [--forcing NAME] [--progress SECONDS] --out DIR
                                           continue the periodic orbits in parameter NAME over FROM..TO (the first
-                                          orbits from simulated transients at each START, default FROM; or from the
+                                          orbits from simulated transients at each START, default FROM, then TO
+                                          and the middles of stretches no branch reached; or from the
                                           state [q; q'] given at phase T0), NAME tied to it by --tie as a power
                                           law: DIR/branch.csv, DIR/special.csv, each branch's rows written as it
                                           ends; progress on stderr (each branch, and every SECONDS, default 10).

@@ -187,7 +187,7 @@ impl Model {
         if let Some(tr) = self.transfer.as_ref().filter(|tr| tr.method == crate::kinds::modal::scene::ContactMethod::Rmtm) {
             let s = &self.stops[tr.stop];
             return Some(format!(
-                "stop '{}' (law '{}') uses mode transfer by RMTM, whose frozen shape (the displacement kept at each switch, outside the span of either basis) is state besides [q; q']: its flow is not a map of [q; q'] (MTM and FIM are)",
+                "stop '{}' (law '{}') uses mode transfer by RMTM, which has no periodic orbit: its frozen shape is kept in two truncated bases (the structure's modes and the tip-spring modes, T T^T != I), so where the structure's motion repeats, the contact phases' frozen load moves by the same amount every period (docs/mode_transfer.md); MTM and FIM have periodic orbits",
                 s.name,
                 s.law.name()
             ));

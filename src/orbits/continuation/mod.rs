@@ -55,8 +55,10 @@ pub struct Continuation {
     /// The range the branches stay in.
     pub from: f64,
     pub to: f64,
-    /// Where orbits are found to start branches from (default: `from`);
-    /// an orbit already on a branch starts none.
+    /// Where orbits are found to start branches from (default: `from`,
+    /// then `to` if no branch reached it, then the middle of each stretch
+    /// wider than a twentieth of the range that no branch spans); an
+    /// orbit already on a branch starts none.
     pub starts: Vec<f64>,
     /// A start state `[q; q']` at `t0` for the first start (default: the
     /// state after `transient` forcing periods from the scene's initial
@@ -268,10 +270,17 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
         if k == starts.len() {
             // Without starts given, the far end too where no branch from
             // `from` reached it (one can end at a grazing with no orbit
-            // found beyond it, or where Newton gives out).
+            // found beyond it, or where Newton gives out); then the middle
+            // of the widest stretch of the range that neither a branch nor
+            // a start covers, while one is wider than a twentieth of it.
+            if !settings.starts.is_empty() || diagram.branches.len() >= settings.max_branches {
+                break;
+            }
             let reached = diagram.branches.iter().any(|b| b.points.iter().any(|p| p.param == settings.to));
-            if settings.starts.is_empty() && starts.len() == 1 && !reached {
+            if starts.len() == 1 && !reached {
                 starts.push(settings.to);
+            } else if let Some(middle) = widest_gap(&diagram.branches, &starts, (lo, hi)).filter(|(width, _)| *width > (hi - lo) / 20.0).map(|(_, m)| m) {
+                starts.push(middle);
             } else {
                 break;
             }
@@ -350,6 +359,27 @@ fn follow_restarts(walker: &mut Walker, diagram: &mut Diagram, max_branches: usi
         diagram.branches.push(branch);
     }
     Ok(())
+}
+
+/// The widest stretch of `range` that no branch spans and no start lies
+/// in: its width and its middle.
+fn widest_gap(branches: &[Branch], starts: &[f64], range: (f64, f64)) -> Option<(f64, f64)> {
+    let mut covered: Vec<(f64, f64)> = branches
+        .iter()
+        .filter(|b| !b.points.is_empty())
+        .map(|b| b.points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, z), p| (a.min(p.param), z.max(p.param))))
+        .chain(starts.iter().map(|&s| (s, s)))
+        .collect();
+    covered.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut reach = range.0;
+    let mut widest: Option<(f64, f64)> = None;
+    for (a, z) in covered.into_iter().chain([(range.1, range.1)]) {
+        if a > reach && widest.map_or(true, |(w, _)| a - reach > w) {
+            widest = Some((a - reach, 0.5 * (a + reach)));
+        }
+        reach = reach.max(z);
+    }
+    widest
 }
 
 /// Whether a parameter (by its scene path) is a periodic drive's

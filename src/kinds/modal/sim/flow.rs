@@ -25,7 +25,8 @@
 //! transfer by MTM: the switch's reset is the change of basis (the state
 //! is in the basis of the current phase: a section in free flight has
 //! the structure's modes at both ends). Not covered (refused with the
-//! reason): RMTM, whose frozen shape is state besides `[q; q']`. Several
+//! reason): RMTM, which has no periodic orbit (its frozen shape drifts by
+//! the same amount every period: docs/mode_transfer.md). Several
 //! guards at zero at one instant (two stops struck at once) take the
 //! first one's saltation.
 
