@@ -125,12 +125,19 @@ pub struct DimensionlessIntegrals {
 }
 
 impl DimensionlessIntegrals {
-    /// By composite 16-point Gauss-Legendre with 8 panels per half wave of
-    /// the highest mode (products of two shapes included).
+    /// By composite 16-point Gauss-Legendre, exact to rounding for the
+    /// products of two shapes (oscillating at most at `2 beta_N`, decaying
+    /// at most as fast): panels of `omega h <= pi / 2` at `omega = 2
+    /// beta_N` (`quadrature::for_each_node_band_limited`'s rule).
     pub fn new(n: usize) -> Self {
+        Self::with_panels_per_half_wave(n, 2)
+    }
+
+    /// [`Self::new`] with `per` panels per half wave of the highest mode.
+    pub fn with_panels_per_half_wave(n: usize, per: usize) -> Self {
         let modes: Vec<DimensionlessMode> = (1..=n).map(|j| DimensionlessMode::new(Support::ClampedFree, j)).collect();
         let beta: Vec<f64> = modes.iter().map(|m| m.beta).collect();
-        let panels = 8 * ((2.0 * beta[n - 1] / PI).ceil() as usize + 1);
+        let panels = per * ((2.0 * beta[n - 1] / PI).ceil() as usize + 1);
         let (mut m, mut k, mut d, mut s, mut c) =
             (DMatrix::zeros(n, n), DMatrix::zeros(n, n), DMatrix::zeros(n, n), DMatrix::zeros(n, n), DMatrix::zeros(n, n));
         let (mut gamma, mut sigma) = (DVector::zeros(n), DVector::zeros(n));
@@ -697,6 +704,22 @@ mod tests {
             modal_damping: vec![],
             n_modes: n,
             order,
+        }
+    }
+
+    #[test]
+    fn band_limited_panels_give_the_dense_rules_integrals() {
+        // Two panels per half wave of the highest mode against eight: the
+        // same integrals to rounding, up to 100 modes.
+        for n in [2, 6, 32, 100] {
+            let (a, b) = (DimensionlessIntegrals::new(n), DimensionlessIntegrals::with_panels_per_half_wave(n, 8));
+            for (x, y, what) in [(&a.m, &b.m, "M"), (&a.k, &b.k, "K"), (&a.d, &b.d, "D"), (&a.s, &b.s, "S"), (&a.c, &b.c, "C")] {
+                let scale = y.amax();
+                let diff = (x - y).amax() / scale;
+                assert!(diff < 1e-13, "{n} modes, {what}: {diff:e}");
+            }
+            let diff = (&a.gamma - &b.gamma).amax().max((&a.sigma - &b.sigma).amax());
+            assert!(diff < 1e-14, "{n} modes, Gamma and Sigma: {diff:e}");
         }
     }
 
