@@ -167,6 +167,9 @@ pub struct ForceCollocation {
     /// Accepted and rejected steps.
     pub accepted: u64,
     pub rejected: u64,
+    /// Attempted steps of every kind (accepted, rejected, those of
+    /// [`Self::single_step`]): the work a caller's cap counts.
+    attempts: std::cell::Cell<u64>,
 }
 
 /// Ratio of successive pieces of a step onto a corner.
@@ -187,7 +190,12 @@ impl ForceCollocation {
         }
         let h = options.h_init.min(options.h_max);
         let amax = contacts.iter().map(|c| c.d.amax()).collect();
-        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0 }
+        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
+    }
+
+    /// Steps attempted so far, of every kind.
+    pub fn attempts(&self) -> u64 {
+        self.attempts.get()
     }
 
     pub fn t(&self) -> f64 {

@@ -110,6 +110,7 @@ impl ForceCollocation {
     pub(super) fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, guess: &[f64], cached: bool) -> Result<Attempt, NewtonFailure> {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
+        self.attempts.set(self.attempts.get() + 1);
         let kernels = self.kernels_for(h, cached);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();

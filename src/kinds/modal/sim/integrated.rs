@@ -415,9 +415,12 @@ impl Simulation {
                 if *probes + weight > max_probes {
                     return Err(SimError::TooMuchWork { time: scan, work: *probes, cap: "solver.max_probes_per_step" });
                 }
-                *probes += weight;
-                self.stats.probes += 1;
+                // Every attempt counts (rejected ones too: a far state can
+                // take hundreds per accepted step).
+                let before = seg.solver.attempts();
                 take_step(seg)?;
+                *probes += weight * (seg.solver.attempts() - before).max(1);
+                self.stats.probes += 1;
                 if let (Some(trace), Some(step)) = (&mut self.flow_trace, &seg.step) {
                     trace.push(step.1);
                 }
@@ -443,6 +446,7 @@ impl Simulation {
             }
             // The state at the switch: a step of its own from the step's start.
             let y0 = seg.step.as_ref().expect("a step").2.clone();
+            let attempts_before_switch = seg.solver.attempts();
             let mut at = seg.switch_state(t0, &y0, t1, te);
             // The zero is the dense output's (stage order): Newton on the
             // full-order state, each iterate a step from the step's start,
@@ -485,6 +489,9 @@ impl Simulation {
                     te = next;
                 }
             }
+            // The switch state's steps count as steps (each up to a
+            // thousand attempts).
+            *probes += crate::kinds::modal::model::INTEGRATED_STEP_WEIGHT * (seg.solver.attempts() - attempts_before_switch);
             if te > t_end {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
