@@ -26,6 +26,35 @@ pub struct StepCurve<'a> {
     pub y0: &'a DVector<f64>,
     /// Room for `u(t)` and `u'(t)` (the samples' states).
     buffers: RefCell<(DVector<f64>, DVector<f64>)>,
+    /// The last few contact points and gap rates, by time: the locator
+    /// asks for a sample's value and rate again as the next bracket's
+    /// start.
+    points: RefCell<Recent<ContactPoint>>,
+    rates: RefCell<Recent<f64>>,
+}
+
+/// The last [`RECENT`] values of a function of time.
+struct Recent<T> {
+    entries: [(f64, T); RECENT],
+    next: usize,
+}
+
+const RECENT: usize = 4;
+
+impl<T: Copy + Default> Recent<T> {
+    fn new() -> Self {
+        Recent { entries: [(f64::NAN, T::default()); RECENT], next: 0 }
+    }
+
+    fn get(&self, t: f64) -> Option<T> {
+        self.entries.iter().find(|e| e.0 == t).map(|e| e.1)
+    }
+
+    fn put(&mut self, t: f64, value: T) -> T {
+        self.entries[self.next] = (t, value);
+        self.next = (self.next + 1) % RECENT;
+        value
+    }
 }
 
 /// A located switch: its time, the watch whose zero it is, and the slope
@@ -35,7 +64,16 @@ pub type Switch = (f64, Watch, f64);
 impl<'a> StepCurve<'a> {
     pub fn new(phase: &'a Phase, solver: &'a Stepper, t0: f64, t1: f64, y0: &'a DVector<f64>) -> Self {
         let dim = y0.len();
-        StepCurve { phase, solver, t0, t1, y0, buffers: RefCell::new((DVector::zeros(dim), DVector::zeros(dim))) }
+        StepCurve {
+            phase,
+            solver,
+            t0,
+            t1,
+            y0,
+            buffers: RefCell::new((DVector::zeros(dim), DVector::zeros(dim))),
+            points: RefCell::new(Recent::new()),
+            rates: RefCell::new(Recent::new()),
+        }
     }
 
     /// `u(t)` into `out`, as [`Self::y`].
@@ -63,6 +101,14 @@ impl<'a> StepCurve<'a> {
     }
 
     pub fn point(&self, t: f64) -> ContactPoint {
+        if let Some(c) = self.points.borrow().get(t) {
+            return c;
+        }
+        let c = self.point_uncached(t);
+        self.points.borrow_mut().put(t, c)
+    }
+
+    fn point_uncached(&self, t: f64) -> ContactPoint {
         if self.phase.prescribed() {
             let y = self.y(t);
             let (z, zd) = self.phase.coords(t, &y);
@@ -88,6 +134,14 @@ impl<'a> StepCurve<'a> {
 
     /// `d/dt gap(u(t))`.
     fn gap_rate(&self, t: f64) -> f64 {
+        if let Some(r) = self.rates.borrow().get(t) {
+            return r;
+        }
+        let r = self.gap_rate_uncached(t);
+        self.rates.borrow_mut().put(t, r)
+    }
+
+    fn gap_rate_uncached(&self, t: f64) -> f64 {
         let Some(s) = &self.phase.model.surface else { return 0.0 };
         if !self.phase.prescribed() {
             // The penetration's rate is linear in z': along `u`, with `u'`
