@@ -392,7 +392,8 @@ pub fn default_probe_budget(n_modes: usize) -> u64 {
 }
 
 /// What one step of an integrated phase counts against the work cap, in
-/// search points: a force-collocation step with its switch search costs
+/// search points (every attempt: rejected ones, and those of the state at
+/// a switch, too): a force-collocation step with its switch search costs
 /// about as much as 5 to 8 of them (HertzStop at tolerance 1e-8: 9.8 us per
 /// step against 1.3 us per point at N = 20, 49 us against 9 us at N = 160).
 pub const INTEGRATED_STEP_WEIGHT: u64 = 8;

@@ -272,8 +272,10 @@ pub fn continue_orbits_observed(scene: &Component, settings: &Continuation, obse
             // `from` reached it (one can end at a grazing with no orbit
             // found beyond it, or where Newton gives out); then the middle
             // of the widest stretch of the range that neither a branch nor
-            // a start covers, while one is wider than a twentieth of it.
-            if !settings.starts.is_empty() || diagram.branches.len() >= settings.max_branches {
+            // a start covers, while one is wider than a twentieth of it
+            // (at most as many starts as branches: a stretch may hold no
+            // orbit a transient settles on).
+            if !settings.starts.is_empty() || diagram.branches.len() >= settings.max_branches || starts.len() > settings.max_branches + 1 {
                 break;
             }
             let reached = diagram.branches.iter().any(|b| b.points.iter().any(|p| p.param == settings.to));
