@@ -167,9 +167,13 @@ impl Simulation {
             ));
         }
         check_geometry(&sim)?;
+        // An integrated phase's impulse is accurate to its tolerance (a
+        // switch's state, a Newton step from the step's start, may give a
+        // little less than the dense output did before it).
+        let slack = if has_integrated_phase(&sim.model) { (16.0 * sim.model.integration_tolerance).max(1e-9) } else { 1e-9 };
         for i in 0..sim.model.stops.len() {
             let (total, mark) = (sim.impulse_total(i), sim.state.stops[i].impulse_mark);
-            if mark > total.max(0.0) * (1.0 + 1e-9) + f64::MIN_POSITIVE {
+            if mark > total.max(0.0) * (1.0 + slack) + f64::MIN_POSITIVE {
                 return Err(format!("simulation state: stops[{i}].impulse mark {mark} exceeds the impulse delivered so far, {total}"));
             }
         }
@@ -300,6 +304,11 @@ fn check_numbers(st: &SimState) -> Result<(), String> {
     Ok(())
 }
 
+/// Whether some stop's law has an integrated (nonlinear) contact phase.
+fn has_integrated_phase(model: &Model) -> bool {
+    model.stops.iter().any(|s| s.law.states().iter().any(|c| s.law.term(*c) == crate::contact::PhaseTerm::Nonlinear))
+}
+
 /// The state agrees with the stops and with its own segment: every stop
 /// is where its contact state says (apart: not inside; in contact:
 /// inside), every function its contact state watches is non-negative (the
@@ -316,12 +325,15 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
     let switching = sim.stops_at_pending_switch();
     #[cfg(not(feature = "power-law"))]
     let switching: Vec<usize> = Vec::new();
-    let integrated = model.stops.iter().any(|s| s.law.states().iter().any(|c| s.law.term(*c) == crate::contact::PhaseTerm::Nonlinear));
+    let integrated = has_integrated_phase(model);
     for (i, stop) in model.stops.iter().enumerate() {
         let name = &stop.name;
         let counters = &st.stops[i];
         let contact = counters.contact;
         let mut at = WatchValues::new(sim, i, &st.current);
+        // On the stop to rounding (before the integrated phases' widening
+        // below): where a departing flag still means what it says.
+        let rounding_p = at.level_p;
         if integrated && !stop.law.rigid() {
             // A compliant stop in a scene with an integrated phase (a rigid
             // stop's impacts and holds put the point exactly on it): its
@@ -373,8 +385,12 @@ fn check_geometry(sim: &Simulation) -> Result<(), String> {
         // An integrated phase's flags are its events' own, read only at its
         // anchor (the search tests signs from there).
         let flag_read = !sim.segment.is_integrated() || st.time == st.anchor_time;
-        if contact == Contact::Open && counters.departing[0] && flag_read && at.p.abs() <= at.level_p {
-            // On the stop and treated as leaving it: it must not be pressed in.
+        if contact == Contact::Open && counters.departing[0] && flag_read && at.p.abs() <= rounding_p {
+            // On the stop and treated as leaving it: it must not be pressed
+            // in. (Off it by more than rounding, within an integrated
+            // phase's accuracy, the flag is the last separation's, and the
+            // motion may already be closing again: HertzStop at tolerance
+            // 1e-4, 64 nm apart 17 us after a separation.)
             let geo = &sim.geometries[i];
             let mut jets = ModalJet::new(model.n_modes());
             jets.fill_free(&sim.dynamics, st.time, &st.current);
