@@ -80,6 +80,9 @@ fn every_save_restores(name: &str, scene: &Component, h: f64, steps: usize, earl
     let mut t = start;
     for k in 0..steps {
         let target = t + h;
+        // Events made at one time: a run that stops before an event and
+        // then does not make it stops before it again without end.
+        let mut at_one_time = (f64::NAN, 0);
         loop {
             let what = format!("{name} h = {h:e}, step {k} at t = {}", run.time());
             let mut restored = restores(scene, &inputs, run.as_ref(), &what);
@@ -89,7 +92,9 @@ fn every_save_restores(name: &str, scene: &Component, h: f64, steps: usize, earl
                 let b = restored.advance_to_event(target).unwrap();
                 assert_eq!(a, b, "{what}");
                 assert_eq!(outputs(scene, run.as_ref()), outputs(scene, restored.as_ref()), "{what}");
-                if let Reached::Event(_) = a {
+                if let Reached::Event(te) = a {
+                    at_one_time = if te == at_one_time.0 { (te, at_one_time.1 + 1) } else { (te, 1) };
+                    assert!(at_one_time.1 <= 64, "{what}: 64 events at t = {te}, the run makes no progress");
                     // Saved with the event pending, restored, then made.
                     let mut pending = restores(scene, &inputs, run.as_ref(), &format!("{what} (event pending)"));
                     saves += 1;
@@ -299,4 +304,21 @@ fn hertz_stop_at_loose_tolerances_restores_every_state() {
         let saves = every_save_restores(&format!("HertzStop tolerance {tol:e}"), &scene, 1.1e-5, 6500, true);
         assert!(saves > 6500);
     }
+}
+
+#[test]
+fn hertz_stop_from_an_extreme_start_makes_and_restores_its_pending_switches() {
+    // Modes 7 and 16 started at 500 (tip speeds near 8e5 m/s), tolerance
+    // 1e-2, early returns every 1e-4 s: at t = 0.0315 a separation's
+    // refined time lay 1.03 % of its 3.2 us step before the dense
+    // output's zero, past the 1 % a search to the run's own time refined.
+    // The state stopped before it was refused ("no switch at this time"),
+    // and making the event found no switch, so the run stopped before it
+    // again without end.
+    let scene = with(
+        component("hertz_stop"),
+        &[("q0[7]", 500.0), ("q0[16]", 500.0), ("q0[10]", 347.89762354272625), ("q0[20]", 0.0), ("solver.integration_tolerance", 1e-2)],
+    );
+    let saves = every_save_restores("HertzStop from an extreme start", &scene, 1e-4, 320, true);
+    assert!(saves > 320);
 }

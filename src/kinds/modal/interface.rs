@@ -251,10 +251,12 @@ impl Limits {
 
     /// Power-law stiffness: a force `K p^n` no stiffer than the hardest
     /// linear stop at a penetration of 1e-9 of the displacement scale (`K =
-    /// k / p^(n - 1)` there).
+    /// k / p^(n - 1)` there), and not zero: a law without force has no
+    /// time scale to step its contact phases by, nor a force to end them
+    /// (a linear stop's closed form needs neither).
     pub fn power_stiffness_range(&self, n: f64) -> Range {
         let p = 1e-9 * self.displacement / MAX_DISPLACEMENT_RATIO;
-        Range::closed(0.0, self.stop_stiffness_range().max / p.powf(n - 1.0))
+        Range { min_open: true, ..Range::closed(0.0, self.stop_stiffness_range().max / p.powf(n - 1.0)) }
     }
 
     /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness

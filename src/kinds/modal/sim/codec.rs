@@ -167,13 +167,19 @@ impl Simulation {
             ));
         }
         check_geometry(&sim)?;
-        // An integrated phase's impulse is accurate to its tolerance (a
-        // switch's state, a Newton step from the step's start, may give a
-        // little less than the dense output did before it).
-        let slack = if has_integrated_phase(&sim.model) { (16.0 * sim.model.integration_tolerance).max(1e-9) } else { 1e-9 };
+        // An integrated phase's impulse is accurate to its tolerance of the
+        // motion's scale (a switch's state, a Newton step from the step's
+        // start, may give a little less than the dense output did before
+        // it): the impulse that changes the modal speeds by their size,
+        // `|q'| / |w|`, is that scale (a stop of tiny stiffness delivers an
+        // impulse far below it).
+        let integrated = has_integrated_phase(&sim.model);
+        let slack = if integrated { (16.0 * sim.model.integration_tolerance).max(1e-9) } else { 1e-9 };
+        let speed = sim.state.anchor.qd.norm().max(sim.state.current.qd.norm());
         for i in 0..sim.model.stops.len() {
             let (total, mark) = (sim.impulse_total(i), sim.state.stops[i].impulse_mark);
-            if mark > total.max(0.0) * (1.0 + slack) + f64::MIN_POSITIVE {
+            let motion = if integrated { slack * speed / sim.geometries[i].w.norm().max(f64::MIN_POSITIVE) } else { 0.0 };
+            if mark > total.max(0.0) * (1.0 + slack) + motion + f64::MIN_POSITIVE {
                 return Err(format!("simulation state: stops[{i}].impulse mark {mark} exceeds the impulse delivered so far, {total}"));
             }
         }

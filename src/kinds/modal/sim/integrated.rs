@@ -313,7 +313,12 @@ impl Simulation {
             scale_q = scale_q.max(g.gap.abs().max(depth) / w_max);
             scale_v = scale_v.max(v0 / w_max);
         }
-        if !quarter.is_finite() {
+        // A contact slower than the slowest mode (a stop of vanishing
+        // stiffness) sets no time scale: its force error says nothing of the
+        // modes' motion, and steps as long as its quarter period would
+        // leave the gaps' samples seconds, or ages, apart. The modes' own
+        // scale then bounds the steps.
+        if !quarter.is_finite() || quarter > 0.25 * std::f64::consts::TAU / slowest {
             quarter = self.model.shortest_period();
         }
         let phase = NonlinearPhase::new(n, contacts);
@@ -399,6 +404,14 @@ impl Simulation {
     /// at or before `t_end`, inside the last step).
     pub(super) fn integrated_search(&mut self, t_end: f64, probes: &mut u64) -> Result<Option<IntegratedSwitch>, SimError> {
         let max_probes = self.model.max_probes_per_step;
+        // A run stopped just before a switch (its search position before
+        // its time) finds that switch again by a search to its time (to
+        // make it, to restore the state, to take its guard): the refined
+        // time lies before the dense output's zero by up to the dense
+        // output's error, which at loose tolerances is more than
+        // SETTLE_MARGIN of the step, so there any zero in the step is
+        // refined before it is compared with the time.
+        let settle_margin = if t_end == self.state.time && self.state.scan < t_end { 1.0 } else { SETTLE_MARGIN };
         loop {
             let scan = self.state.scan;
             if scan >= t_end && scan > self.state.anchor_time {
@@ -440,7 +453,7 @@ impl Simulation {
             // The refinement below moves the dense output's zero by its
             // error, a small fraction of the step, either way: a zero that
             // far past t_end is past it whatever the refinement says.
-            if te > t_end + SETTLE_MARGIN * (t1 - t0) {
+            if te > t_end + settle_margin * (t1 - t0) {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
             }
