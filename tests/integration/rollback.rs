@@ -322,3 +322,42 @@ fn hertz_stop_from_an_extreme_start_makes_and_restores_its_pending_switches() {
     let saves = every_save_restores("HertzStop from an extreme start", &scene, 1e-4, 320, true);
     assert!(saves > 320);
 }
+
+#[test]
+fn a_hertz_stop_of_vanishing_stiffness_restores_every_state() {
+    // A random start (fuzz seed 11, sequence 34: the beam 378 m inside the
+    // stop's surface, tip speeds near 1e8 m/s, tolerance 3.5e-8) with
+    // K from the least admitted (1.9e-8) to 1e-3: the contact's quarter
+    // period (up to 3e157 s at 1e-30) set the steps, a Pressed stop's
+    // penetration oscillated through zero between the step's four
+    // samples, and the state past a missed separation (1954 m out) was
+    // refused; at K = 1e-30 before that, an impulse mark 6.6e-28 above the
+    // 3.6e-28 delivered (the integrated impulse is accurate to the
+    // tolerance of the motion's scale).
+    let start = [
+        ("q0[1]", 500.0), ("q0[2]", -0.00013704499841394664), ("q0[3]", -1.1834154531314502),
+        ("q0[4]", -500.0), ("q0[5]", 0.0018924151034961508), ("q0[6]", 171.0501027976665),
+        ("q0[7]", 3.0715410404557414e-08), ("q0[8]", -119.4945053376527), ("q0[9]", 0.0),
+        ("q0[10]", 0.0), ("q0[11]", 0.0), ("q0[12]", 500.0),
+        ("q0[13]", 0.011080795378818354), ("q0[14]", 500.0), ("q0[15]", -500.0),
+        ("q0[16]", 1.8739836425127742e-05), ("q0[17]", 149.80958379271726), ("q0[18]", 0.0),
+        ("q0[19]", -500.0), ("q0[20]", -500.0), ("qd0[1]", 0.0),
+        ("qd0[2]", 0.0), ("qd0[3]", -0.00034859067685935266), ("qd0[4]", 6384.568446409115),
+        ("qd0[5]", 4627.728826909341), ("qd0[6]", 1.1228187507706093e-05), ("qd0[7]", 24.863783975146188),
+        ("qd0[8]", -0.010697674586284572), ("qd0[9]", -46636.492990164574), ("qd0[10]", 0.0),
+        ("qd0[11]", -49056.8109800601), ("qd0[12]", -52491.22886523656), ("qd0[13]", 0.0023639242272837134),
+        ("qd0[14]", -27171.538789764363), ("qd0[15]", 52491.22886523656), ("qd0[16]", 0.0),
+        ("qd0[17]", -1619.6982922627792), ("qd0[18]", 52491.22886523656), ("qd0[19]", 52491.22886523656),
+        ("qd0[20]", 52491.22886523656), ("root.x", 0.01363688012664488), ("shaker.amplitude", 2521431.459551473),
+        ("shaker.omega", 0.08766837112934876), ("solver.integration_tolerance", 3.4961308049760085e-08), ("stop.e", 0.22492894417557796),
+        ("stop.gap", -377.92844410243), ("stop.x", 0.5), ("tip.x", 0.5),
+        ("zeta", 0.0),
+    ];
+    let scene = with(component("hertz_stop"), &start);
+    let least = scene.parameters().iter().find(|p| p.name == "stop.K").unwrap().range.min;
+    for k in [least, 1e-3, 1.0] {
+        let scene = with(scene.clone(), &[("stop.K", k)]);
+        let saves = every_save_restores(&format!("HertzStop from a random start, K = {k:e}"), &scene, 1e-3, 6, true);
+        assert!(saves > 6);
+    }
+}

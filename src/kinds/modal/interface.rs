@@ -161,6 +161,9 @@ pub struct Limits {
 pub const MAX_ZETA: f64 = 1e3;
 /// The stiffest compliant stop, relative to `m omega_low^2`.
 pub const MAX_STOP_STIFFNESS_RATIO: f64 = 1e14;
+/// The softest power-law (Hertz) stop, relative to the stiffest: its force
+/// 1e-30 of the stiffest one's at the same penetration.
+pub const MIN_POWER_STIFFNESS_RATIO: f64 = 1e-30;
 /// The fastest load, relative to the highest natural frequency.
 pub const MAX_LOAD_FREQUENCY_RATIO: f64 = 1e3;
 /// The largest displacement, relative to the structure's length.
@@ -251,12 +254,14 @@ impl Limits {
 
     /// Power-law stiffness: a force `K p^n` no stiffer than the hardest
     /// linear stop at a penetration of 1e-9 of the displacement scale (`K =
-    /// k / p^(n - 1)` there), and not zero: a law without force has no
-    /// time scale to step its contact phases by, nor a force to end them
-    /// (a linear stop's closed form needs neither).
+    /// k / p^(n - 1)` there), and at least `MIN_POWER_STIFFNESS_RATIO` of
+    /// that: a law without force has no force whose end ends a contact
+    /// (a linear stop's closed form needs none), and one of a denormal
+    /// size has its force and its switches in the underflow.
     pub fn power_stiffness_range(&self, n: f64) -> Range {
         let p = 1e-9 * self.displacement / MAX_DISPLACEMENT_RATIO;
-        Range { min_open: true, ..Range::closed(0.0, self.stop_stiffness_range().max / p.powf(n - 1.0)) }
+        let max = self.stop_stiffness_range().max / p.powf(n - 1.0);
+        Range::closed(MIN_POWER_STIFFNESS_RATIO * max, max)
     }
 
     /// Stop stiffness: up to `MAX_STOP_STIFFNESS_RATIO` times the stiffness

@@ -316,10 +316,13 @@ impl Simulation {
         // A contact slower than the slowest mode (a stop of vanishing
         // stiffness) sets no time scale: its force error says nothing of the
         // modes' motion, and steps as long as its quarter period would
-        // leave the gaps' samples seconds, or ages, apart. The modes' own
-        // scale then bounds the steps.
+        // leave the gaps' samples seconds, or ages, apart. The fastest
+        // mode's quarter period then bounds the steps: the switch locator
+        // sees every dip of a free motion whose extrema lie more than an
+        // eighth of a step apart.
         if !quarter.is_finite() || quarter > 0.25 * std::f64::consts::TAU / slowest {
-            quarter = self.model.shortest_period();
+            let fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
+            quarter = 0.25 * std::f64::consts::TAU / fastest.max(slowest);
         }
         let phase = NonlinearPhase::new(n, contacts);
         let dim = phase.dim();
