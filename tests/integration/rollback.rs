@@ -361,3 +361,28 @@ fn a_hertz_stop_of_vanishing_stiffness_restores_every_state() {
         assert!(saves > 6);
     }
 }
+
+#[test]
+fn a_rigid_impact_that_turns_a_hertz_force_switches_the_hertz_stop() {
+    // RigidAndHertzStops with the Hertz stop moved to x = 0.925 and a fast
+    // start (fuzz seed 13, sequence 11): at t = 0.0194 the rigid stop's
+    // impact reversed the pressed Hertz stop's penetration rate, its
+    // Hunt-Crossley force turned to -1.45e5, and the stop stayed Pressed:
+    // the state was refused on restore. The jump now switches it.
+    let scene = with(component("rigid_and_hertz"), &[("q0[2]", -0.0004868574567521576), ("qd0[1]", 2567.929908526733), ("soft.x", 0.9245659348501304)]);
+    let saves = every_save_restores("RigidAndHertzStops, an impact during a Hertz contact", &scene, 1e-3, 22, true);
+    assert!(saves > 22);
+}
+
+#[test]
+fn a_separation_the_full_order_motion_does_not_reach_is_not_made() {
+    // HertzStop with the surface at the tip's rest (gap -3.2e-9), a mode
+    // started fast and tolerance 9.5e-3 (fuzz seed 12, sequence 38): at
+    // t = 0.0717 the dense output placed a separation the full-order
+    // steps never reached (the penetration still 1.15e-3 and growing at
+    // the step's end); the run left the stop there, penetrated, and the
+    // state was refused on restore.
+    let scene = with(component("hertz_stop"), &[("qd0[18]", -52491.22886523656), ("stop.gap", -3.247909087292817e-09), ("solver.integration_tolerance", 0.009466243910019457)]);
+    let saves = every_save_restores("HertzStop, a spurious separation", &scene, 1e-4, 719, true);
+    assert!(saves > 719);
+}

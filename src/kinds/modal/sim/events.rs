@@ -54,6 +54,7 @@ impl Simulation {
         self.apply_switches(t, st, work);
         let basis_changed = self.switch_basis(st, &work.was, &work.contact);
         self.apply_impacts(t, st, work);
+        self.switch_after_jump(t, st, work);
         self.settle_holds(t, st, work);
         self.project_on_held(st, &work.contact)?;
         if let (Some(before), Some(b)) = (energy_before, self.state.balance.as_mut()) {
@@ -145,6 +146,40 @@ impl Simulation {
                 }
                 _ => {}
             }
+        }
+    }
+
+    /// An impact's jump of the speeds can step an engaged compliant stop
+    /// over a zero of its watched functions (a Pressed stop whose damping
+    /// now pulls, a Penetrated one whose force now pushes, a contact point
+    /// moved off its surface): it switches there, as at that zero.
+    fn switch_after_jump(&mut self, t: f64, st: &ModalState, work: &mut EventWork) {
+        if work.impacts.is_empty() && work.sticks.is_empty() {
+            return;
+        }
+        let mut jumped = Vec::new();
+        for (i, m) in self.model.stops.iter().enumerate() {
+            let contact = work.contact[i];
+            if m.law.rigid() || !matches!(contact, Contact::Pressed | Contact::Penetrated) {
+                continue;
+            }
+            let g = &self.geometries[i];
+            let (p, pd) = (g.penetration(&st.q), g.penetration_rate(&st.qd));
+            for &watch in m.law.watches(contact) {
+                let value = m.law.watched(watch, p, pd, self.state.stops[i].onset_speed).0;
+                if value < 0.0 {
+                    let crossed = Jet { d: [value, -1.0, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 };
+                    if let Switch::To(next) = m.law.on_zero(contact, watch, &crossed, p) {
+                        jumped.push((i, next, pd));
+                        break;
+                    }
+                }
+            }
+        }
+        if !jumped.is_empty() {
+            let located = std::mem::replace(&mut work.switches, jumped);
+            self.apply_switches(t, st, work);
+            work.switches = located;
         }
     }
 

@@ -470,6 +470,7 @@ impl Simulation {
             // bracket's start); that state may then lie a rounding-sized
             // distance short of it, and Newton steps on from it carry the
             // switch past the zero, as the locator promises.
+            let mut spurious = false;
             if let Some(&(c, slope)) = located.at_zero.first() {
                 for _ in 0..4 {
                     let g = seg.evaluate(&seg.evaluators[c], te, &at);
@@ -504,10 +505,19 @@ impl Simulation {
                     };
                     te = next;
                 }
+                // Carried to the step's end with the function still
+                // positive: the full-order motion does not reach the zero
+                // the dense output (of stage order: at loose tolerances off
+                // by more than the function's size) placed in this step.
+                spurious = te == t1 && seg.evaluate(&seg.evaluators[c], te, &at) > 0.0;
             }
             // The switch state's steps count as steps (each up to a
             // thousand attempts).
             *probes += crate::kinds::modal::model::INTEGRATED_STEP_WEIGHT * (seg.solver.attempts() - attempts_before_switch);
+            if spurious {
+                self.state.scan = t1;
+                continue;
+            }
             if te > t_end {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
