@@ -386,3 +386,18 @@ fn a_separation_the_full_order_motion_does_not_reach_is_not_made() {
     let saves = every_save_restores("HertzStop, a spurious separation", &scene, 1e-4, 719, true);
     assert!(saves > 719);
 }
+
+#[test]
+fn an_onset_at_a_million_metres_per_second_restores() {
+    // HertzStop of the least K from a random start (fuzz seed 12,
+    // sequence 3): the onset at t = 0.006875, approach speed 2.6e6 m/s,
+    // was placed 1.7e-11 short of the surface (7 ulps of time early, as
+    // the search allows), and its state was refused on restore for a
+    // level of 2 ulps.
+    let scene = with(
+        component("hertz_stop"),
+        &[("qd0[20]", -52491.22886523656), ("q0[15]", -36.2614188113518), ("solver.integration_tolerance", 1e-10), ("q0[6]", -500.0), ("stop.K", 1.934586400211152e-08)],
+    );
+    let saves = every_save_restores("HertzStop, an onset at 2.6e6 m/s", &scene, 1e-4, 72, true);
+    assert!(saves > 72);
+}
