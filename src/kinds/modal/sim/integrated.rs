@@ -432,10 +432,12 @@ impl Simulation {
                     return Err(SimError::TooMuchWork { time: scan, work: *probes, cap: "solver.max_probes_per_step" });
                 }
                 // Every attempt counts (rejected ones too: a far state can
-                // take hundreds per accepted step).
+                // take hundreds per accepted step), up to the cap: a step's
+                // attempts are not known before it, and the one that
+                // reaches the cap ends the advance at the next check.
                 let before = seg.solver.attempts();
                 take_step(seg)?;
-                *probes += weight * (seg.solver.attempts() - before).max(1);
+                *probes = (*probes + weight * (seg.solver.attempts() - before).max(1)).min(max_probes);
                 self.stats.probes += 1;
                 if let (Some(trace), Some(step)) = (&mut self.flow_trace, &seg.step) {
                     trace.push(step.1);
@@ -513,7 +515,7 @@ impl Simulation {
             }
             // The switch state's steps count as steps (each up to a
             // thousand attempts).
-            *probes += crate::kinds::modal::model::INTEGRATED_STEP_WEIGHT * (seg.solver.attempts() - attempts_before_switch);
+            *probes = (*probes + crate::kinds::modal::model::INTEGRATED_STEP_WEIGHT * (seg.solver.attempts() - attempts_before_switch)).min(max_probes.max(*probes));
             if spurious {
                 self.state.scan = t1;
                 continue;
