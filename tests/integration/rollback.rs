@@ -401,3 +401,20 @@ fn an_onset_at_a_million_metres_per_second_restores() {
     let saves = every_save_restores("HertzStop, an onset at 2.6e6 m/s", &scene, 1e-4, 72, true);
     assert!(saves > 72);
 }
+
+#[test]
+fn a_switch_refined_to_before_a_communication_point_is_made_before_it() {
+    // HertzStop with modes 12 and 19 started at 5e4 m/s and tolerance
+    // 1.75e-3 (fuzz seed 16, sequence 9): the dense output's zero lay more
+    // than 1 % of its step past t = 0.0341, so the search to 0.0341 left
+    // it to the next, whose refinement moved it back before 0.0341: an
+    // event in the past (the state refused, early returns without
+    // progress). Every zero in a step is now refined before it is
+    // compared with the search's end.
+    let scene = with(
+        component("hertz_stop"),
+        &[("qd0[5]", 0.0), ("q0[17]", 0.0), ("qd0[19]", 51509.79689072495), ("qd0[12]", -52491.22886523656), ("solver.integration_tolerance", 0.0017519269166603691)],
+    );
+    let saves = every_save_restores("HertzStop, a switch refined before a communication point", &scene, 1e-4, 344, true);
+    assert!(saves > 344);
+}

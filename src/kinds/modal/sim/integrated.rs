@@ -26,11 +26,6 @@ use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointConta
 use crate::solve::switch::{first_switch, DenseWatch};
 use crate::solve::{Functional, Jet, ModalForcing, ModalState, REANCHOR_AFTER};
 
-/// Within this fraction of a step past the search's end, a located zero
-/// is refined before it is compared with the end (its refined time may lie
-/// before it).
-const SETTLE_MARGIN: f64 = 0.01;
-
 /// How one channel is evaluated in an integrated phase.
 #[derive(Clone, Debug)]
 pub(super) enum Evaluator {
@@ -98,6 +93,13 @@ impl IntegratedSegment {
                 return;
             }
         }
+        self.dense_y_at(t, out);
+    }
+
+    /// The dense output alone (what the switch locator reads: a search
+    /// repeated after a switch's full-order state was kept must see the
+    /// same function at that very time, or it brackets another zero).
+    fn dense_y_at(&self, t: f64, out: &mut DVector<f64>) {
         match &self.step {
             Some((t0, _, y0)) if t == *t0 => out.copy_from(y0),
             Some(_) => {
@@ -218,7 +220,7 @@ impl DenseWatch for IntegratedSegment {
 
     fn values(&self, t: f64, out: &mut [f64]) {
         let mut y = self.buffer.borrow_mut();
-        self.y_at(t, &mut y);
+        self.dense_y_at(t, &mut y);
         for (o, e) in out.iter_mut().zip(&self.evaluators) {
             *o = self.evaluate(e, t, &y);
         }
@@ -226,13 +228,13 @@ impl DenseWatch for IntegratedSegment {
 
     fn value(&self, i: usize, t: f64) -> f64 {
         let mut y = self.buffer.borrow_mut();
-        self.y_at(t, &mut y);
+        self.dense_y_at(t, &mut y);
         self.evaluate(&self.evaluators[i], t, &y)
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
         let mut y = self.buffer.borrow_mut();
-        self.y_at(t, &mut y);
+        self.dense_y_at(t, &mut y);
         self.rate_in(i, &y)
     }
 }
@@ -407,14 +409,6 @@ impl Simulation {
     /// at or before `t_end`, inside the last step).
     pub(super) fn integrated_search(&mut self, t_end: f64, probes: &mut u64) -> Result<Option<IntegratedSwitch>, SimError> {
         let max_probes = self.model.max_probes_per_step;
-        // A run stopped just before a switch (its search position before
-        // its time) finds that switch again by a search to its time (to
-        // make it, to restore the state, to take its guard): the refined
-        // time lies before the dense output's zero by up to the dense
-        // output's error, which at loose tolerances is more than
-        // SETTLE_MARGIN of the step, so there any zero in the step is
-        // refined before it is compared with the time.
-        let settle_margin = if t_end == self.state.time && self.state.scan < t_end { 1.0 } else { SETTLE_MARGIN };
         loop {
             let scan = self.state.scan;
             if scan >= t_end && scan > self.state.anchor_time {
@@ -454,14 +448,16 @@ impl Simulation {
                 self.state.scan = t1;
                 continue;
             };
+            // Every zero in the step is refined before it is compared with
+            // t_end: the refinement moves the dense output's zero by its
+            // error, at loose tolerances a large part of the step, either
+            // way. A zero past t_end whose refined time lies before it is
+            // this search's (a search that left it to the next would find
+            // it before that one's start: an event in the past), and a run
+            // stopped before a switch finds it again by a search to its
+            // own time (to make it, to restore the state, to take its
+            // guard).
             let mut te = located.time;
-            // The refinement below moves the dense output's zero by its
-            // error, a small fraction of the step, either way: a zero that
-            // far past t_end is past it whatever the refinement says.
-            if te > t_end + settle_margin * (t1 - t0) {
-                self.state.scan = self.state.scan.max(t_end);
-                return Ok(None);
-            }
             // The state at the switch: a step of its own from the step's start.
             let y0 = seg.step.as_ref().expect("a step").2.clone();
             let attempts_before_switch = seg.solver.attempts();
