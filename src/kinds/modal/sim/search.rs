@@ -253,7 +253,11 @@ impl Simulation {
         loop {
             #[cfg(feature = "power-law")]
             if self.segment.is_integrated() {
-                let searched = self.integrated_search(t_end, &mut probes);
+                // The integrated search counts against the cap with the
+                // accounting's nodes so far.
+                let mut work = probes + nodes as u64;
+                let searched = self.integrated_search(t_end, &mut work);
+                probes = work - nodes as u64;
                 self.stats.work = base + probes + nodes as u64;
                 let Some(found) = searched.inspect_err(|_| self.stop_at(self.state.scan.min(t_end)))? else { break };
                 let IntegratedSwitch { time: te, state: at, at_zero, from } = found;
