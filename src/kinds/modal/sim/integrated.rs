@@ -23,7 +23,7 @@ use super::nonlinear::{NonlinearContact, NonlinearPhase};
 use super::{Channel, SimError, Simulation};
 use crate::contact::{Contact, Watch};
 use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointContact};
-use crate::solve::switch::{first_switch, DenseWatch};
+use crate::solve::switch::{first_switch, grid, DenseWatch};
 use crate::solve::{Functional, Jet, ModalForcing, ModalState, REANCHOR_AFTER};
 
 /// How one channel is evaluated in an integrated phase.
@@ -469,7 +469,15 @@ impl Simulation {
             // distance short of it, and Newton steps on from it carry the
             // switch past the zero, as the locator promises.
             let mut spurious = false;
-            if let Some(&(c, slope)) = located.at_zero.first() {
+            // A geometric function found below zero while it rises: a
+            // contact that began a rounding-sized distance short of its
+            // surface (where the free flight placed its gap's zero), the
+            // penetration below zero as the point arrives. No zero here to
+            // refine or to switch at (the chord through rounding-sized
+            // values falls, the motion does not); the search moves on past
+            // the sample.
+            let rising = located.at_zero.first().is_some_and(|&(c, _)| seg.rate_in(c, &at).is_some_and(|r| r > 0.0));
+            if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !rising) {
                 for _ in 0..4 {
                     let g = seg.evaluate(&seg.evaluators[c], te, &at);
                     let rate = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
@@ -516,6 +524,10 @@ impl Simulation {
                 self.state.scan = t1;
                 continue;
             }
+            if rising {
+                self.state.scan = grid(t0, t1).into_iter().find(|&s| s >= te).unwrap_or(t1);
+                continue;
+            }
             if te > t_end {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
@@ -534,6 +546,10 @@ impl Simulation {
                 .iter()
                 .map(|&(c, slope)| {
                     let value = seg.evaluate(&seg.evaluators[c], te, &at);
+                    // A gap's or penetration's rate is the switch state's
+                    // own (the locator's slope is a chord's, through
+                    // rounding-sized values at a contact's start).
+                    let slope = seg.rate_in(c, &at).unwrap_or(slope);
                     (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
                 })
                 .collect();
