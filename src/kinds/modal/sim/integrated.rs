@@ -469,15 +469,16 @@ impl Simulation {
             // distance short of it, and Newton steps on from it carry the
             // switch past the zero, as the locator promises.
             let mut spurious = false;
-            // A geometric function found below zero while it rises: a
-            // contact that began a rounding-sized distance short of its
-            // surface (where the free flight placed its gap's zero), the
-            // penetration below zero as the point arrives. No zero here to
-            // refine or to switch at (the chord through rounding-sized
-            // values falls, the motion does not); the search moves on past
-            // the sample.
-            let rising = located.at_zero.first().is_some_and(|&(c, _)| seg.rate_in(c, &at).is_some_and(|r| r > 0.0));
-            if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !rising) {
+            // A geometric function below zero from the bracket's start on
+            // and rising: a contact that began a rounding-sized distance
+            // short of its surface (where the free flight placed its gap's
+            // zero), the penetration below zero as the point arrives. No
+            // zero here to refine or to switch at (the chord through
+            // rounding-sized values falls, the motion does not); the search
+            // moves on past the sample.
+            let rising = |seg: &IntegratedSegment, c: usize, at: &DVector<f64>| seg.rate_in(c, at).is_some_and(|r| r > 0.0);
+            let mut passed = located.at_zero.first().is_some_and(|&(c, _)| seg.value(c, located.from) < 0.0 && rising(seg, c, &at));
+            if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !passed) {
                 for _ in 0..4 {
                     let g = seg.evaluate(&seg.evaluators[c], te, &at);
                     let rate = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
@@ -515,7 +516,11 @@ impl Simulation {
                 // positive: the full-order motion does not reach the zero
                 // the dense output (of stage order: at loose tolerances off
                 // by more than the function's size) placed in this step.
-                spurious = te == t1 && seg.evaluate(&seg.evaluators[c], te, &at) > 0.0;
+                let g = seg.evaluate(&seg.evaluators[c], te, &at);
+                spurious = te == t1 && g > 0.0;
+                // Above zero and rising where the steps ended: the
+                // dense output's dip is its error, not the motion's.
+                passed = g > 0.0 && rising(seg, c, &at);
             }
             // The switch state's steps count as steps (each up to a
             // thousand attempts).
@@ -524,8 +529,9 @@ impl Simulation {
                 self.state.scan = t1;
                 continue;
             }
-            if rising {
-                self.state.scan = grid(t0, t1).into_iter().find(|&s| s >= te).unwrap_or(t1);
+            if passed {
+                let scan = self.state.scan;
+                self.state.scan = grid(t0, t1).into_iter().find(|&s| s >= te && s > scan).unwrap_or(t1);
                 continue;
             }
             if te > t_end {
@@ -546,10 +552,12 @@ impl Simulation {
                 .iter()
                 .map(|&(c, slope)| {
                     let value = seg.evaluate(&seg.evaluators[c], te, &at);
-                    // A gap's or penetration's rate is the switch state's
-                    // own (the locator's slope is a chord's, through
-                    // rounding-sized values at a contact's start).
-                    let slope = seg.rate_in(c, &at).unwrap_or(slope);
+                    // A gap's or penetration's rate where it falls is the
+                    // switch state's own (the locator's slope is a chord's:
+                    // the approach speed an impact reports); where the
+                    // state's rises, the dip the chord crossed lies behind
+                    // it, and the chord's slope says so.
+                    let slope = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                     (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
                 })
                 .collect();
