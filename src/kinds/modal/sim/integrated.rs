@@ -191,6 +191,26 @@ impl IntegratedSegment {
         }
     }
 
+    /// Whether geometric function `i` lies below zero at `t` by no more
+    /// than the rounding of its terms, each mode's at its amplitude
+    /// (`omegas`: the modes' frequencies): the free flight reaches its
+    /// states as sums of oscillations that large.
+    fn below_by_rounding(&self, i: usize, t: f64, omegas: impl Iterator<Item = f64>) -> bool {
+        let value = self.value(i, t);
+        let (d, offset) = match &self.evaluators[i] {
+            Evaluator::Affine(h, _) => (h.q.as_slice(), h.offset),
+            Evaluator::Nonlinear { contact, .. } => {
+                let g = &self.phase.contacts[*contact].geometry;
+                (g.w.as_slice(), g.gap)
+            }
+        };
+        let mut y = self.buffer.borrow_mut();
+        self.dense_y_at(t, &mut y);
+        let n = self.phase.n;
+        let size = offset.abs() + omegas.enumerate().map(|(j, omega)| d[j].abs() * (y[j].abs() + y[n + j].abs() / omega)).sum::<f64>();
+        value < 0.0 && value >= -64.0 * f64::EPSILON * size
+    }
+
     /// The rate of watched function `i` in the integrated state `y`, for
     /// the geometric ones.
     fn rate_in(&self, i: usize, y: &DVector<f64>) -> Option<f64> {
@@ -469,15 +489,21 @@ impl Simulation {
             // distance short of it, and Newton steps on from it carry the
             // switch past the zero, as the locator promises.
             let mut spurious = false;
-            // A geometric function below zero from the bracket's start on
-            // and rising: a contact that began a rounding-sized distance
-            // short of its surface (where the free flight placed its gap's
-            // zero), the penetration below zero as the point arrives. No
-            // zero here to refine or to switch at (the chord through
-            // rounding-sized values falls, the motion does not); the search
-            // moves on past the sample.
+            // A geometric function below zero by its rounding from the
+            // bracket's start on, and rising: a contact that began a
+            // rounding-sized distance short of its surface (where the free
+            // flight placed its gap's zero), the penetration below zero as
+            // the point arrives. No zero here to refine or to switch at
+            // (the chord through rounding-sized values falls, the motion
+            // does not); the search moves on past the sample. (Below zero
+            // by more, the zero is the law's to decide: a contact whose
+            // separation was placed late by a loose tolerance, the point
+            // back on its way in, switches there.)
             let rising = |seg: &IntegratedSegment, c: usize, at: &DVector<f64>| seg.rate_in(c, at).is_some_and(|r| r > 0.0);
-            let mut passed = located.at_zero.first().is_some_and(|&(c, _)| seg.value(c, located.from) < 0.0 && rising(seg, c, &at));
+            let oscillators = &self.model.oscillators;
+            let mut passed = located.at_zero.first().is_some_and(|&(c, _)| {
+                rising(seg, c, &at) && seg.below_by_rounding(c, located.from, oscillators.iter().map(|o| o.omega))
+            });
             if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !passed) {
                 for _ in 0..4 {
                     let g = seg.evaluate(&seg.evaluators[c], te, &at);
