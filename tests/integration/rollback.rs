@@ -459,7 +459,7 @@ fn a_contact_that_starts_short_of_its_surface_goes_on() {
             Reached::Time => t = target,
         }
     }
-    // 76 onsets, then the tip stays pressed; each onset within the
+    // 81 onsets, then the tip stays pressed; each onset within the
     // rounding of the modes' amplitudes of the surface (4.1e-11 at 1e6 m/s).
     assert!(onsets > 70, "{onsets} onsets");
     assert!(deepest < 1e-10, "an onset {deepest:e} short of the surface");
