@@ -266,13 +266,20 @@ pub struct AccelerationScratch {
     sb: Vec<f64>,
     cb: Vec<f64>,
     qb: Vec<f64>,
+    kb: Vec<f64>,
+    cbd: Vec<f64>,
 }
 
-/// `a x` for `a` column-major `n x n` (nalgebra's storage), into `out`.
+/// `a x` for `a` column-major `n x n` (nalgebra's storage), into `out`:
+/// column by column (contiguous, so the rows run in SIMD lanes), each
+/// row's sum in the order of `j` from `-0.0`, as `Iterator::sum` adds.
 fn mat_vec(a: &[f64], x: &[f64], out: &mut [f64]) {
     let n = x.len();
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = (0..n).map(|j| a[i + j * n] * x[j]).sum();
+    out.fill(-0.0);
+    for (j, &xj) in x.iter().enumerate() {
+        for (o, aij) in out.iter_mut().zip(&a[j * n..(j + 1) * n]) {
+            *o += aij * xj;
+        }
     }
 }
 
@@ -440,8 +447,8 @@ impl RotatingBeam {
     ) -> Result<ContactTerms, String> {
         let n = self.n_modes();
         assert!(z.len() == n + 1 && zd.len() == n + 1 && zdd.len() == n + 1, "rotating beam: a state vector has N + 1 = {} entries", n + 1);
-        let AccelerationScratch { mdb, sb, cb, qb } = scratch;
-        for v in [&mut *mdb, &mut *sb, &mut *cb, &mut *qb] {
+        let AccelerationScratch { mdb, sb, cb, qb, kb, cbd } = scratch;
+        for v in [&mut *mdb, &mut *sb, &mut *cb, &mut *qb, &mut *kb, &mut *cbd] {
             v.resize(n, 0.0);
         }
         let (b, bd) = (&z[1..], &zd[1..]);
@@ -455,10 +462,14 @@ impl RotatingBeam {
             mat_vec(sgeo, b, sb);
             q0 -= g * (self.s_1 * cs - sn * dot(self.sigma.as_slice(), b) - 0.5 * cs * dot(b, sb));
         }
+        mat_vec(k, b, kb);
+        if self.undamped {
+            cbd.fill(0.0);
+        } else {
+            mat_vec(damping, bd, cbd);
+        }
         for i in 0..n {
-            let kb: f64 = (0..n).map(|j| k[i + j * n] * b[j]).sum();
-            let cbd: f64 = if self.undamped { 0.0 } else { (0..n).map(|j| damping[i + j * n] * bd[j]).sum() };
-            qb[i] = mdb[i] * (thd * thd) - kb - cbd;
+            qb[i] = mdb[i] * (thd * thd) - kb[i] - cbd[i];
             if g != 0.0 {
                 qb[i] += sb[i] * (g * sn) - self.sigma[i] * (g * cs);
             }
@@ -514,12 +525,19 @@ impl RotatingBeam {
     pub fn plane_penetration(&self, z: &[f64], zd: &[f64], plane: &Plane) -> (f64, f64) {
         let (b, bd) = (&z[1..], &zd[1..]);
         let n = b.len();
-        let c = self.c_tip.as_slice();
+        // `C_L B` on the stack for up to 64 modes.
+        let (mut stack, mut heap) = ([0.0; 64], Vec::new());
+        let cb: &mut [f64] = if n <= stack.len() {
+            &mut stack[..n]
+        } else {
+            heap.resize(n, 0.0);
+            &mut heap
+        };
+        mat_vec(self.c_tip.as_slice(), b, cb);
         let (mut bcb, mut bdcb) = (0.0, 0.0);
         for i in 0..n {
-            let cbi: f64 = (0..n).map(|j| c[i + j * n] * b[j]).sum();
-            bcb += b[i] * cbi;
-            bdcb += bd[i] * cbi;
+            bcb += b[i] * cb[i];
+            bdcb += bd[i] * cb[i];
         }
         let (sn, cs) = z[0].sin_cos();
         let tip = TipFrame {

@@ -240,13 +240,24 @@ impl<'a> StepCurve<'a> {
         let ts: Vec<f64> = (0..=SAMPLES).map(|k| if k == SAMPLES { end } else { self.t0 + h * k as f64 / SAMPLES as f64 }).collect();
         let fs: Vec<f64> = ts.iter().map(|&t| f(t)).collect();
         let k = (0..ts.len()).fold(0, |best, i| if fs[i] > fs[best] { i } else { best });
+        let xtol = 1e-8 * h;
+        if k == 0 || k == SAMPLES {
+            // The best sample an end and the force falling from it into
+            // the step: that end is the peak (the search below takes the
+            // bracket to hold one peak; it would close in on the end by
+            // golden sections, about 38 evaluations).
+            let inside = if k == 0 { ts[0] + xtol } else { ts[SAMPLES] - xtol };
+            if f(inside) <= fs[k] {
+                return Some((ts[k], fs[k]));
+            }
+        }
         let (lo, hi) = (ts[k.saturating_sub(1)], ts[(k + 1).min(SAMPLES)]);
         // Brent's search from the best sample (its bracket's middle, or
         // a point inside when it is an end: the peak may lie inside the
         // first or last interval); a location to 1e-8 of the step leaves
         // the value's error at ~1e-16 of the force's curvature scale.
         let (x, fx) = if k == 0 || k == SAMPLES { let x = 0.5 * (lo + hi); (x, f(x)) } else { (ts[k], fs[k]) };
-        let (t, v) = maximize(f, lo, hi, x, fx, 1e-8 * h);
+        let (t, v) = maximize(f, lo, hi, x, fx, xtol);
         if v >= fs[k] {
             Some((t, v))
         } else {
