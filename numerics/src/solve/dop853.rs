@@ -626,6 +626,43 @@ impl<F: Rhs> Dop853<F> {
         true
     }
 
+    /// A bound on `|sum_j w_j y_(offset + j)(t)|` over the last step: the
+    /// dense output `y_old + x (F0 + (1 - x) (F1 + x (F2 + ...)))` (`x` the
+    /// step's fraction) weighed by `w` is a polynomial of degree 7 in
+    /// `x`, no larger on `[0, 1]` than its largest coefficient in the
+    /// Bernstein basis (their convex hull holds it); `None` before
+    /// [`Self::prepare_dense`].
+    pub fn dense_dot_bound(&self, w: &[f64], offset: usize) -> Option<f64> {
+        if !self.dense_ready || self.h_previous == 0.0 {
+            return None;
+        }
+        let n = self.n;
+        let dot = |v: &[f64]| w.iter().zip(&v[offset..offset + w.len()]).map(|(a, b)| a * b).sum::<f64>();
+        // Monomial coefficients, from the innermost factor out.
+        const DEG: usize = 7;
+        let mut p = [0.0; DEG + 1];
+        for r in (0..7).rev() {
+            p[0] += dot(&self.dense_f[r * n..(r + 1) * n]);
+            let mut next = [0.0; DEG + 1];
+            for i in 0..DEG {
+                if r % 2 == 0 {
+                    // times x
+                    next[i + 1] += p[i];
+                } else {
+                    // times (1 - x)
+                    next[i] += p[i];
+                    next[i + 1] -= p[i];
+                }
+            }
+            p = next;
+        }
+        p[0] += dot(&self.y_old);
+        // Bernstein coefficients b_i = sum_(j <= i) C(i, j) / C(DEG, j) a_j.
+        let binom = |a: usize, b: usize| (0..b).fold(1.0, |acc, k| acc * (a - k) as f64 / (k + 1) as f64);
+        let bound = (0..=DEG).map(|i| (0..=i).map(|j| binom(i, j) / binom(DEG, j) * p[j]).sum::<f64>().abs()).fold(0.0, f64::max);
+        Some(bound)
+    }
+
     /// `sum_i w_i y_i(t)` from the dense output, over the first `w.len()`
     /// components (a scalar event function without the full state).
     pub fn dense_dot(&mut self, t: f64, w: &[f64]) -> f64 {
@@ -742,5 +779,31 @@ mod tests {
         let mut y = [0.0; 2];
         s.dense_at(tm, &mut y);
         assert!((d[0] - y[1]).abs() < 1e-9, "{} against {}", d[0], y[1]);
+    }
+
+    /// The dense output's bound on a weighted velocity holds at every
+    /// point of a step long enough for the velocity to change sign, and
+    /// is within 1.5 times the largest value there.
+    #[test]
+    fn dense_dot_bound_covers_the_step() {
+        let w = 3.0;
+        let rhs = move |_t: f64, y: &[f64], dy: &mut [f64]| {
+            dy[0] = y[1];
+            dy[1] = -w * w * y[0];
+        };
+        let mut s = super::Dop853::new(rhs, 0.0, &[1.0, 0.0], 10.0, 1e-3, &[1e-3], None);
+        for _ in 0..3 {
+            s.step().unwrap();
+        }
+        s.prepare_dense();
+        let (a, b) = s.last_step();
+        assert!(w * (b - a) > 0.5, "a long step: {}", b - a);
+        let bound = s.dense_dot_bound(&[2.0], 1).unwrap();
+        let mut y = [0.0; 2];
+        let largest = (0..=1000).fold(0.0f64, |m, i| {
+            s.dense_at(a + (b - a) * i as f64 / 1000.0, &mut y);
+            m.max((2.0 * y[1]).abs())
+        });
+        assert!(largest <= bound && bound < 1.5 * largest, "largest {largest}, bound {bound}");
     }
 }

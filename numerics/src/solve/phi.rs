@@ -52,7 +52,8 @@ pub fn phi_columns(osc: &Oscillator, tau: f64, out: &mut [[f64; 2]]) {
     let mut size = 1.0;
     while size > 1e-18 && terms < 60 {
         terms += 1;
-        size *= r / (terms + kmax) as f64;
+        // By the reciprocal: a division per term took half the time.
+        size *= r * INV[terms + kmax];
     }
     let x_times = |v: [f64; 2]| [tau * v[1], -tau * (w2 * v[0] + 2.0 * a * v[1])];
     let mut u = [0.0, inv_fact(terms + kmax)];
@@ -73,6 +74,17 @@ const INV_FACT: [f64; 80] = {
     let mut k = 1;
     while k < 80 {
         t[k] = t[k - 1] / k as f64;
+        k += 1;
+    }
+    t
+};
+
+/// `1 / k` for `0 < k < 80`.
+const INV: [f64; 80] = {
+    let mut t = [0.0; 80];
+    let mut k = 1;
+    while k < 80 {
+        t[k] = 1.0 / k as f64;
         k += 1;
     }
     t

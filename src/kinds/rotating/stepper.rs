@@ -205,11 +205,15 @@ impl Stepper {
     }
 
     /// A bound on the rate of `w . z` over the last step (the
-    /// exponential integrator's; `None` for the others).
+    /// exponential integrator's and DOP853's; `None` for Radau).
     pub fn speed_bound(&self, w: &[f64]) -> Option<f64> {
         match self {
             Stepper::Exponential(s) => s.speed_bound(w),
-            _ => None,
+            // The velocities follow the coordinates `w` weighs; half again
+            // for the weights' change along the step (the caller's `w` is
+            // the gap's gradient at the step's start).
+            Stepper::Dop853(s) => s.dense_dot_bound(w, w.len()).map(|b| 1.5 * b),
+            Stepper::Radau(_) => None,
         }
     }
 
