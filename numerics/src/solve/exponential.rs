@@ -130,16 +130,7 @@ impl LinearModes {
 
 /// `a x` into `out`, `a` square (column-major).
 fn mat_vec(a: &DMatrix<f64>, x: &[f64], out: &mut [f64]) {
-    let n = x.len();
-    let s = a.as_slice();
-    out.fill(0.0);
-    for (j, &xj) in x.iter().enumerate() {
-        if xj != 0.0 {
-            for (o, aij) in out.iter_mut().zip(&s[j * n..(j + 1) * n]) {
-                *o += aij * xj;
-            }
-        }
-    }
+    super::matvec::mat_vec(a.as_slice(), x, out, 0.0);
 }
 
 /// The nodes `c_j = (1 - cos(pi j / DEGREE)) / 2` on `[0, 1]` and the

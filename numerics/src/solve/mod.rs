@@ -22,6 +22,7 @@ pub mod functional;
 pub mod lti;
 pub mod exponential;
 pub mod lu;
+pub mod matvec;
 pub mod modal_state;
 pub mod oscillator;
 pub mod phi;

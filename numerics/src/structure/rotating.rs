@@ -270,17 +270,11 @@ pub struct AccelerationScratch {
     cbd: Vec<f64>,
 }
 
-/// `a x` for `a` column-major `n x n` (nalgebra's storage), into `out`:
-/// column by column (contiguous, so the rows run in SIMD lanes), each
-/// row's sum in the order of `j` from `-0.0`, as `Iterator::sum` adds.
+/// `a x` for `a` column-major `n x n` (nalgebra's storage), into `out`,
+/// each row's sum in the order of `j` from `-0.0`, as `Iterator::sum`
+/// adds.
 fn mat_vec(a: &[f64], x: &[f64], out: &mut [f64]) {
-    let n = x.len();
-    out.fill(-0.0);
-    for (j, &xj) in x.iter().enumerate() {
-        for (o, aij) in out.iter_mut().zip(&a[j * n..(j + 1) * n]) {
-            *o += aij * xj;
-        }
-    }
+    crate::solve::matvec::mat_vec(a, x, out, -0.0);
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
