@@ -24,6 +24,11 @@
 //! at the step's end; the step grows or shrinks as DOP853's does. The
 //! dense output is the same formula at any time inside the step: of
 //! the method's full order, with its exact derivative.
+//!
+//! **Cost.** Step sizes come from the ladder of [`super::step_ladder`]:
+//! the modes' responses at the nodes (phi functions at every node and
+//! mode, a quarter of a step's work at 32 modes) are kept per size and
+//! shared by the steps of that size.
 
 use std::sync::Arc;
 
@@ -38,6 +43,8 @@ pub const DEGREE: usize = 6;
 const NODES: usize = DEGREE + 1;
 /// Sweeps per attempt before the step is halved.
 const MAX_SWEEPS: usize = 12;
+/// Step sizes whose node responses are kept.
+const RESPONSE_SETS: usize = 16;
 
 /// The frozen linear part in modal form.
 #[derive(Clone, Debug)]
@@ -227,6 +234,9 @@ pub struct Exponential<R: Rhs> {
     pub evaluations: u64,
     /// The last dense query: time, state, derivative.
     dense_cache: std::cell::RefCell<Option<(f64, Vec<f64>, Vec<f64>)>>,
+    /// The modes' responses at the nodes (node 0 unused) of the step
+    /// sizes used last, the newest last.
+    node_responses: Vec<(f64, Arc<Vec<Responses>>)>,
     scratch_y: Vec<f64>,
     scratch_f: Vec<f64>,
 }
@@ -275,6 +285,7 @@ impl<R: Rhs> Exponential<R> {
             rejected: 0,
             evaluations: 0,
             dense_cache: Default::default(),
+            node_responses: Vec::new(),
             scratch_y: vec![0.0; n],
             scratch_f: vec![0.0; n],
         };
@@ -379,20 +390,18 @@ impl<R: Rhs> Exponential<R> {
         let q0 = self.q.clone();
         let mut h = self.h_next.min(self.max_step);
         let nodes_c = self.nodes.0.c;
-        let mut responses: Vec<Responses> = vec![Responses::default(); NODES];
         let mut values: Vec<Vec<f64>> = vec![self.g.clone(); NODES];
         let mut poly = Polynomial { coefficients: vec![[0.0; NODES]; ncomp] };
         let mut states: Vec<Vec<f64>> = vec![vec![0.0; n]; NODES];
         let mut gj = vec![0.0; ncomp];
         loop {
+            h = super::step_ladder(h);
             let min_step = 10.0 * (next_up(t0) - t0).abs();
             if !(h >= min_step) {
                 return Err(ExpStepError::TooSmallStep);
             }
             let modes = self.modes.clone();
-            for j in 1..NODES {
-                responses[j].compute(&modes, nodes_c[j] * h, h);
-            }
+            let responses = self.node_responses_for(h);
             for v in values.iter_mut() {
                 v.copy_from_slice(&self.g);
             }
@@ -458,6 +467,28 @@ impl<R: Rhs> Exponential<R> {
             self.rejected += 1;
             h *= if error.is_finite() { (0.9 * error.powf(-1.0 / NODES as f64)).clamp(0.2, 0.9) } else { 0.5 };
         }
+    }
+
+    /// The modes' responses at the nodes of a step of size `h`: kept, or
+    /// computed and kept (the oldest size dropped).
+    fn node_responses_for(&mut self, h: f64) -> Arc<Vec<Responses>> {
+        if let Some(i) = self.node_responses.iter().position(|(size, _)| *size == h) {
+            let entry = self.node_responses.remove(i);
+            let responses = entry.1.clone();
+            self.node_responses.push(entry);
+            return responses;
+        }
+        let c = self.nodes.0.c;
+        let mut responses = vec![Responses::default(); NODES];
+        for j in 1..NODES {
+            responses[j].compute(&self.modes, c[j] * h, h);
+        }
+        let responses = Arc::new(responses);
+        if self.node_responses.len() == RESPONSE_SETS {
+            self.node_responses.remove(0);
+        }
+        self.node_responses.push((h, responses.clone()));
+        responses
     }
 
     /// The dense output of the last step at `t` (full order); `false`

@@ -38,6 +38,16 @@ pub mod switch;
 /// communication step.
 pub const REANCHOR_AFTER: u64 = 2000;
 
+/// Step sizes of the integrators whose steps need per-size kernels (force
+/// collocation, exponential integration) are powers of `2^(1 /
+/// STEP_LADDER)`: neighbouring steps share those kernels.
+pub const STEP_LADDER: f64 = 4.0;
+
+/// The largest step size of the ladder not above `h`.
+pub fn step_ladder(h: f64) -> f64 {
+    (f64::floor(h.log2() * STEP_LADDER) / STEP_LADDER).exp2()
+}
+
 pub use complex::C64;
 pub use forcing::{Harmonic, ModalForcing};
 pub use free::{FreeDynamics, FreeSegment};

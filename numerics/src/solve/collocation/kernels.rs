@@ -14,13 +14,7 @@ use super::ForceCollocation;
 pub(super) const GRID: usize = SAMPLES;
 /// Kernel sets kept.
 const KERNEL_SETS: usize = 48;
-/// Step sizes are powers of `2^(1 / LADDER)`.
-const LADDER: f64 = 4.0;
-
-/// The largest step size of the ladder not above `h`.
-pub(super) fn ladder(h: f64) -> f64 {
-    (f64::floor(h.log2() * LADDER) / LADDER).exp2()
-}
+pub(super) use super::super::step_ladder as ladder;
 
 /// What every step of one size needs, mode by mode: the responses to the
 /// force monomials and the free kernels at the nodes and the end, and for
