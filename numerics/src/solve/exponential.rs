@@ -38,6 +38,20 @@ use super::dop853::Rhs;
 use super::oscillator::Oscillator;
 use super::phi::phi_columns;
 
+/// A right-hand side that can also give the remainder `g` directly from
+/// the modal state `q = [p; p'; r]` of the linear part it was built for
+/// (fewer products than mapping `q` to `y` and back: the rotating beam's
+/// [`crate::structure::rotating::ModalEquations`]).
+pub trait ModalRhs: Rhs {
+    /// `g` at `(t, q)` into `g`; `false`: not available, the integrator
+    /// goes through `y = [Phi p; Phi p'; r]` and [`Rhs::eval`].
+    fn modal_remainder(&mut self, _t: f64, _q: &[f64], _g: &mut [f64]) -> bool {
+        false
+    }
+}
+
+impl<F: FnMut(f64, &[f64], &mut [f64])> ModalRhs for F {}
+
 /// The remainder's polynomial degree per step.
 pub const DEGREE: usize = 6;
 const NODES: usize = DEGREE + 1;
@@ -103,6 +117,24 @@ impl LinearModes {
     /// The largest modal frequency, rad/s.
     pub fn omega_max(&self) -> f64 {
         self.omega2.iter().fold(0.0f64, |a, &w| a.max(w)).sqrt()
+    }
+
+    /// `Phi` (`z = Phi p`) and `Psi = Phi^-1`.
+    pub fn phi(&self) -> &DMatrix<f64> {
+        &self.phi
+    }
+
+    pub fn psi(&self) -> &DMatrix<f64> {
+        &self.psi
+    }
+
+    /// Per mode `omega^2` and the damping `c`.
+    pub fn omega2(&self) -> &[f64] {
+        &self.omega2
+    }
+
+    pub fn damping(&self) -> &[f64] {
+        &self.damping
     }
 
     /// `q = [Psi z; Psi z'; r]` from `y = [z; z'; r]`.
@@ -258,7 +290,7 @@ pub enum ExpStepError {
     TooSmallStep,
 }
 
-impl<R: Rhs> Exponential<R> {
+impl<R: ModalRhs> Exponential<R> {
     /// An integration of `inner` with the linear part `modes` from
     /// `(t0, y0)`, tolerances on `y`, first step `h_init` (`None`: from
     /// the remainder's size) and step cap `h_max`.
@@ -317,9 +349,12 @@ impl<R: Rhs> Exponential<R> {
     /// `g` (modes' remainders, then the extras' rates) at `(t, q)`.
     fn remainder(&mut self, t: f64, q: &[f64], g: &mut [f64]) {
         let m = self.modes.len();
+        self.evaluations += 1;
+        if self.inner.modal_remainder(t, q, g) {
+            return;
+        }
         self.modes.to_physical(q, &mut self.scratch_y);
         self.inner.eval(t, &self.scratch_y, &mut self.scratch_f);
-        self.evaluations += 1;
         mat_vec(&self.modes.psi, &self.scratch_f[m..2 * m], &mut g[..m]);
         for k in 0..m {
             g[k] += self.modes.omega2[k] * q[k] + self.modes.damping[k] * q[m + k];

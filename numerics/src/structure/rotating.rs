@@ -75,6 +75,9 @@ use std::f64::consts::PI;
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use crate::solve::quadrature::for_each_node;
+
+mod modal;
+pub use modal::ModalEquations;
 use crate::structure::beam::{DimensionlessMode, Support};
 
 /// Which terms of the shortening `u` the model keeps.

@@ -19,9 +19,9 @@ use serde::{Deserialize, Serialize};
 
 use super::system::Phase;
 use crate::contact::Contact;
-use crate::structure::rotating::AccelerationScratch;
+use crate::structure::rotating::{AccelerationScratch, ModalEquations};
 use crate::solve::dop853::{Dop853, Rhs};
-use crate::solve::exponential::Exponential;
+use crate::solve::exponential::{Exponential, LinearModes, ModalRhs};
 use crate::solve::radau::{Radau, RadauOptions, Tol};
 
 /// Which integrator a rotating run uses (`solver.method`).
@@ -67,12 +67,45 @@ pub struct PhaseRhs {
     y: DVector<f64>,
     dy: DVector<f64>,
     scratch: AccelerationScratch,
+    /// The equations in the exponential integrator's modal coordinates
+    /// (a torque-driven hub; a prescribed one goes through `y`).
+    modal: Option<ModalEquations>,
 }
 
 impl PhaseRhs {
     pub(super) fn new(phase: &Phase, n: usize) -> Self {
-        PhaseRhs { phase: phase.clone(), y: DVector::zeros(n), dy: DVector::zeros(n), scratch: AccelerationScratch::default() }
+        PhaseRhs { phase: phase.clone(), y: DVector::zeros(n), dy: DVector::zeros(n), scratch: AccelerationScratch::default(), modal: None }
     }
+
+    /// [`Self::new`] with the remainder in the coordinates of `modes`.
+    fn with_modes(phase: &Phase, n: usize, modes: &LinearModes) -> Self {
+        let mut rhs = Self::new(phase, n);
+        if !phase.prescribed() {
+            rhs.modal = Some(phase.model.beam.modal_equations(modes.phi(), modes.psi(), modes.omega2(), modes.damping()));
+        }
+        rhs
+    }
+}
+
+impl ModalRhs for PhaseRhs {
+    fn modal_remainder(&mut self, _t: f64, q: &[f64], g: &mut [f64]) -> bool {
+        let Some(modal) = self.modal.as_mut() else { return false };
+        if modal_rates(&self.phase, modal, q, g).is_err() {
+            // J(z) lost definiteness: the step control sees a non-finite value.
+            g.fill(f64::NAN);
+        }
+        true
+    }
+}
+
+/// The remainder of a torque-driven hub's phase in modal coordinates
+/// `q = [p; p'; P, E, H]`: the modes' `g`, then the running totals' rates
+/// as [`Phase::fill_rhs_free_hub`] gives them.
+fn modal_rates(phase: &Phase, modal: &mut ModalEquations, q: &[f64], g: &mut [f64]) -> Result<(), String> {
+    let m = phase.n() + 1;
+    let terms = phase.with_pushing_law(|contact| modal.remainder(&phase.model.beam, &q[..m], &q[m..2 * m], phase.torque, contact, &mut g[..m]))?;
+    phase.totals_rates(&terms, &mut g[m..m + 3]);
+    Ok(())
 }
 
 impl Rhs for PhaseRhs {
@@ -107,7 +140,7 @@ impl Stepper {
                 let n = y0.len();
                 let (rtol, atol) = dop853_tolerances(options, n);
                 let modes = phase.linear_modes(t0, y0)?;
-                let solver = Exponential::new(PhaseRhs::new(phase, n), std::sync::Arc::new(modes), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
+                let solver = Exponential::new(PhaseRhs::with_modes(phase, n, &modes), std::sync::Arc::new(modes), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
                 if !solver.y().iter().all(|x| x.is_finite()) {
                     return Err("the start state is not finite".into());
                 }

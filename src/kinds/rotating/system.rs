@@ -19,7 +19,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, DVector};
 
 use super::model::RotatingModel;
-use crate::structure::rotating::AccelerationScratch;
+use crate::structure::rotating::{AccelerationScratch, ContactTerms, Plane};
 use crate::contact::Contact;
 use crate::solve::exponential::LinearModes;
 use crate::solve::radau::ImplicitSystem;
@@ -223,24 +223,34 @@ impl Phase {
         let (z, rest) = y.split_at(m);
         let zd = &rest[..m];
         let e = self.extras();
-        let (pressed, onset_speed) = (self.contact == Contact::Pressed, self.onset_speed);
+        let (head, tail) = dy.split_at_mut(m);
+        head.copy_from_slice(zd);
+        let terms = self.with_pushing_law(|contact| self.model.beam.accelerations_in_place(z, zd, self.torque, contact, &mut tail[..m], scratch))?;
+        self.totals_rates(&terms, &mut dy[e..e + 3]);
+        Ok(())
+    }
+
+    /// `run` given the contact a torque-driven hub's equations take: the
+    /// surface and the law's force `(penetration, rate)`, when pressed
+    /// (only a pressed contact pushes), else `None`.
+    pub(super) fn with_pushing_law<T>(&self, run: impl FnOnce(Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>) -> T) -> T {
+        let onset_speed = self.onset_speed;
         let surface = self.model.surface.as_ref();
         let mut force = |p: f64, rate: f64| match surface {
             Some(s) if p > 0.0 => s.law.raw_force(p, rate, onset_speed).0.max(0.0),
             _ => 0.0,
         };
-        // Only a pressed contact pushes.
-        let contact = surface.filter(|_| pressed).map(|s| (&s.plane, &mut force as &mut dyn FnMut(f64, f64) -> f64));
-        let (head, tail) = dy.split_at_mut(m);
-        head.copy_from_slice(zd);
-        let terms = self.model.beam.accelerations_in_place(z, zd, self.torque, contact, &mut tail[..m], scratch)?;
-        dy[e] = terms.force;
-        dy[e + 1] = match surface {
+        run(surface.filter(|_| self.contact == Contact::Pressed).map(|s| (&s.plane, &mut force as &mut dyn FnMut(f64, f64) -> f64)))
+    }
+
+    /// The running totals' rates `[P', E', H']` from one evaluation's contact terms.
+    pub(super) fn totals_rates(&self, terms: &ContactTerms, out: &mut [f64]) {
+        out[0] = terms.force;
+        out[1] = match &self.model.surface {
             Some(s) if terms.force > 0.0 => (terms.force - s.law.spring_force(terms.penetration).0) * terms.rate,
             _ => 0.0,
         };
-        dy[e + 2] = terms.hub_force;
-        Ok(())
+        out[2] = terms.hub_force;
     }
 
     /// `d Q_c / d(z, z')` ((N+1) x 2(N+1)) for the force acting now.
