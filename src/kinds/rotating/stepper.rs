@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use super::system::Phase;
 use crate::contact::Contact;
-use crate::structure::rotating::{AccelerationScratch, ModalEquations};
+use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations};
 use crate::solve::dop853::{Dop853, Rhs};
 use crate::solve::exponential::{Exponential, LinearModes, ModalRhs};
 use crate::solve::radau::{Radau, RadauOptions, Tol};
@@ -67,8 +67,7 @@ pub struct PhaseRhs {
     y: DVector<f64>,
     dy: DVector<f64>,
     scratch: AccelerationScratch,
-    /// The equations in the exponential integrator's modal coordinates
-    /// (a torque-driven hub; a prescribed one goes through `y`).
+    /// The equations in the exponential integrator's modal coordinates.
     modal: Option<ModalEquations>,
 }
 
@@ -80,17 +79,15 @@ impl PhaseRhs {
     /// [`Self::new`] with the remainder in the coordinates of `modes`.
     fn with_modes(phase: &Phase, n: usize, modes: &LinearModes) -> Self {
         let mut rhs = Self::new(phase, n);
-        if !phase.prescribed() {
-            rhs.modal = Some(phase.model.beam.modal_equations(modes.phi(), modes.psi(), modes.omega2(), modes.damping()));
-        }
+        rhs.modal = Some(phase.model.beam.modal_equations(modes.phi(), modes.psi(), modes.omega2(), modes.damping(), phase.prescribed()));
         rhs
     }
 }
 
 impl ModalRhs for PhaseRhs {
-    fn modal_remainder(&mut self, _t: f64, q: &[f64], g: &mut [f64]) -> bool {
+    fn modal_remainder(&mut self, t: f64, q: &[f64], g: &mut [f64]) -> bool {
         let Some(modal) = self.modal.as_mut() else { return false };
-        if modal_rates(&self.phase, modal, q, g).is_err() {
+        if modal_rates(&self.phase, modal, t, q, g).is_err() {
             // J(z) lost definiteness: the step control sees a non-finite value.
             g.fill(f64::NAN);
         }
@@ -98,12 +95,19 @@ impl ModalRhs for PhaseRhs {
     }
 }
 
-/// The remainder of a torque-driven hub's phase in modal coordinates
-/// `q = [p; p'; P, E, H]`: the modes' `g`, then the running totals' rates
-/// as [`Phase::fill_rhs_free_hub`] gives them.
-fn modal_rates(phase: &Phase, modal: &mut ModalEquations, q: &[f64], g: &mut [f64]) -> Result<(), String> {
-    let m = phase.n() + 1;
-    let terms = phase.with_pushing_law(|contact| modal.remainder(&phase.model.beam, &q[..m], &q[m..2 * m], phase.torque, contact, &mut g[..m]))?;
+/// The remainder of a phase in modal coordinates `q = [p; p'; P, E, H]`:
+/// the modes' `g`, then the running totals' rates as
+/// [`Phase::fill_rhs`] gives them.
+fn modal_rates(phase: &Phase, modal: &mut ModalEquations, t: f64, q: &[f64], g: &mut [f64]) -> Result<(), String> {
+    let m = phase.extras() / 2;
+    let hub = match phase.model.prescribed() {
+        Some(profile) => {
+            let (theta, theta_dot, theta_ddot) = profile.at(t);
+            Hub::Prescribed { theta, theta_dot, theta_ddot }
+        }
+        None => Hub::Torque(phase.torque),
+    };
+    let terms = phase.with_pushing_law(|contact| modal.remainder(&phase.model.beam, &q[..m], &q[m..2 * m], hub, contact, &mut g[..m]))?;
     phase.totals_rates(&terms, &mut g[m..m + 3]);
     Ok(())
 }

@@ -1,5 +1,5 @@
-//! The torque-driven rotating beam's equations in the coordinates of a
-//! frozen linear part, for the exponential integrator's remainder.
+//! The rotating beam's equations in the coordinates of a frozen linear
+//! part, for the exponential integrator's remainder.
 //!
 //! With `z = [theta; B] = Phi p` (`Phi_0` the hub's row, `Phi_B` the
 //! modes') and `Psi = Phi^-1` (`Psi_0` the hub's column, `Psi_B` the
@@ -9,6 +9,10 @@
 //! a theta'']` with `a = M^-1 Gamma`, so
 //!
 //! `Psi z'' = u theta'' + W Q_B`, `u = Psi_0 - Psi_B a`, `W = Psi_B M^-1`,
+//!
+//! (a prescribed hub: `z = [theta(t); Phi p]`, `M B'' = Q_B - Gamma
+//! theta''`, so `Psi B'' = u theta'' + W Q_B` with `u = -W Gamma`, `W =
+//! Psi M^-1`, and no hub equation),
 //!
 //! and every term of `Q_B` and of the hub's equation is linear or
 //! quadratic in `p` and `p'` through products fixed with the frozen part:
@@ -24,12 +28,22 @@ use nalgebra::DMatrix;
 
 use super::{mat_vec, ContactTerms, Plane, RotatingBeam, TipFrame};
 
+/// How the hub moves: a torque drives it (its angle among the modal
+/// coordinates), or its angle, rate and acceleration are given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Hub {
+    Torque(f64),
+    Prescribed { theta: f64, theta_dot: f64, theta_ddot: f64 },
+}
+
 /// Products of one frozen linear part with the beam's matrices
-/// (column-major `(N + 1) x (N + 1)` unless said).
+/// (column-major `m x m`, `m` the modal coordinates: `N + 1` for a
+/// torque-driven hub, `N` for a prescribed one).
 #[derive(Clone, Debug)]
 pub struct ModalEquations {
     m: usize,
-    /// `Phi_0` (the hub angle's row), `Phi_B^T w`, `Phi_B^T sigma`.
+    prescribed: bool,
+    /// `Phi_0` (the hub angle's row; empty when prescribed), `Phi_B^T w`, `Phi_B^T sigma`.
     phi_hub: Vec<f64>,
     phi_w: Vec<f64>,
     phi_sigma: Vec<f64>,
@@ -60,14 +74,15 @@ pub struct ModalEquations {
 
 impl RotatingBeam {
     /// The products of the frozen linear part `z = phi p`, `p = psi z`
-    /// (torque-driven hub: `N + 1` coordinates), its modes' `omega^2` and
-    /// damping `c`.
-    pub fn modal_equations(&self, phi: &DMatrix<f64>, psi: &DMatrix<f64>, omega2: &[f64], c: &[f64]) -> ModalEquations {
+    /// (`z = [theta; B]` for a torque-driven hub, `z = B` for a
+    /// `prescribed` one), its modes' `omega^2` and damping `c`.
+    pub fn modal_equations(&self, phi: &DMatrix<f64>, psi: &DMatrix<f64>, omega2: &[f64], c: &[f64], prescribed: bool) -> ModalEquations {
         let n = self.n_modes();
-        let m = n + 1;
-        assert!(phi.shape() == (m, m) && psi.shape() == (m, m) && omega2.len() == m && c.len() == m, "modal_equations: a torque-driven hub has N + 1 = {m} coordinates");
-        let phi_b = phi.rows(1, n).into_owned();
-        let psi_b = psi.columns(1, n).into_owned();
+        let m = if prescribed { n } else { n + 1 };
+        assert!(phi.shape() == (m, m) && psi.shape() == (m, m) && omega2.len() == m && c.len() == m, "modal_equations: {m} modal coordinates expected");
+        let hub = m - n;
+        let phi_b = phi.rows(hub, n).into_owned();
+        let psi_b = psi.columns(hub, n).into_owned();
         let w = &psi_b * &self.m_inv;
         let a = &self.m_inv_gamma;
         let pt = phi_b.transpose();
@@ -83,11 +98,12 @@ impl RotatingBeam {
             }
         }
         let e_c = e_c.or_else(|| c.iter().any(|x| *x != 0.0).then(|| DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(c))));
-        let u = psi.column(0) - &psi_b * a;
+        let u = if prescribed { -(&w * &self.gamma) } else { psi.column(0) - &psi_b * a };
         let gravity = (self.params.gravity != 0.0).then(|| (quad(&self.s_geo), proj(&self.s_geo), (&w * &self.sigma).as_slice().to_vec()));
         ModalEquations {
             m,
-            phi_hub: phi.row(0).iter().copied().collect(),
+            prescribed,
+            phi_hub: if prescribed { Vec::new() } else { phi.row(0).iter().copied().collect() },
             phi_w: (&pt * &self.w).as_slice().to_vec(),
             phi_sigma: (&pt * &self.sigma).as_slice().to_vec(),
             g_md: quad(&self.m_minus_d),
@@ -115,37 +131,45 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl ModalEquations {
-    /// `g = Psi z'' + Omega^2 p + c p'` at `(p, p')` for the hub torque
-    /// `torque`, with the normal force on the tip along `plane`
-    /// (`force(penetration, rate)`, `None`: no contact), as
-    /// [`RotatingBeam::accelerations_in_place`] gives `z''`; an error when
-    /// `J` is not positive definite.
+    /// `g = Psi z'' + Omega^2 p + c p'` at `(p, p')` for the hub's
+    /// motion `hub` (of the kind the products were made for), with the
+    /// normal force on the tip along `plane` (`force(penetration, rate)`,
+    /// `None`: no contact), as [`RotatingBeam::accelerations_in_place`]
+    /// and [`RotatingBeam::prescribed_accelerations`] give `z''`; an error
+    /// when `J` is not positive definite.
     pub fn remainder(
         &mut self,
         beam: &RotatingBeam,
         p: &[f64],
         pd: &[f64],
-        torque: f64,
+        hub: Hub,
         contact: Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>,
         g: &mut [f64],
     ) -> Result<ContactTerms, String> {
         let m = self.m;
-        assert!(p.len() == m && pd.len() == m && g.len() == m, "modal remainder: N + 1 = {m} coordinates");
+        assert!(p.len() == m && pd.len() == m && g.len() == m, "modal remainder: {m} coordinates");
+        let (theta, thd, torque) = match hub {
+            Hub::Torque(torque) if !self.prescribed => (dot(&self.phi_hub, p), dot(&self.phi_hub, pd), torque),
+            Hub::Prescribed { theta, theta_dot, .. } if self.prescribed => (theta, theta_dot, 0.0),
+            _ => panic!("modal remainder: the hub's motion is not of the kind the products were made for"),
+        };
         for v in self.scratch.iter_mut() {
             v.resize(m, 0.0);
         }
         let [gp, hp, lp, sp, tmp] = &mut self.scratch;
-        let (theta, thd) = (dot(&self.phi_hub, p), dot(&self.phi_hub, pd));
         let grav = beam.params.gravity;
         let (sn, cs) = if grav != 0.0 || contact.is_some() { theta.sin_cos() } else { (0.0, 1.0) };
-        mat_vec(self.g_md.as_slice(), p, gp);
-        // Hub: q0 - a . Q_B over the Schur complement.
+        let free_hub = !self.prescribed;
+        if free_hub {
+            mat_vec(self.g_md.as_slice(), p, gp);
+        }
+        // Hub: q0 - a . Q_B over the Schur complement (a torque-driven hub).
         let mut q0 = torque - 2.0 * thd * dot(gp, pd);
         let mut a_qb = thd * thd * dot(&self.a_md, p) - dot(&self.a_k, p);
         if self.e_c.is_some() {
             a_qb -= dot(&self.a_c, pd);
         }
-        if let Some((gs, _, _)) = &self.gravity {
+        if let (Some((gs, _, _)), true) = (&self.gravity, free_hub) {
             mat_vec(gs.as_slice(), p, sp);
             q0 -= grav * (beam.s_1 * cs - sn * dot(&self.phi_sigma, p) - 0.5 * cs * dot(p, sp));
             a_qb += grav * sn * dot(&self.a_s, p) - grav * cs * self.a_sigma;
@@ -174,11 +198,16 @@ impl ModalEquations {
                 pushing = Some((f, lx, ly));
             }
         }
-        let schur = self.schur_0 + dot(p, gp);
-        if !(schur > 0.0) {
-            return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
-        }
-        let thdd = (q0 - a_qb) / schur;
+        let thdd = match hub {
+            Hub::Prescribed { theta_ddot, .. } => theta_ddot,
+            Hub::Torque(_) => {
+                let schur = self.schur_0 + dot(p, gp);
+                if !(schur > 0.0) {
+                    return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
+                }
+                (q0 - a_qb) / schur
+            }
+        };
         // The modes: u theta'' + theta'^2 H p + E p (+ E_c p', gravity, contact).
         mat_vec(self.h_md.as_slice(), p, hp);
         mat_vec(self.e_k.as_slice(), p, g);
@@ -215,70 +244,99 @@ mod tests {
     use nalgebra::{DVector, SymmetricEigen};
 
     /// The modal remainder against the physical route (`z = Phi p`,
-    /// [`RotatingBeam::accelerations_in_place`], `Psi z'' + Omega^2 p + c
-    /// p'`), with gravity, damping, a hub radius and a pressed contact, at
-    /// states of every scale: within 1e-11 of the terms' size.
+    /// [`RotatingBeam::accelerations_in_place`] or, for a prescribed hub,
+    /// [`RotatingBeam::prescribed_accelerations`], then `Psi z'' + Omega^2
+    /// p + c p'`), with gravity, damping, a hub radius and a pressed
+    /// contact, at states of every scale: within 1e-11 of the terms' size.
     #[test]
     fn modal_remainder_is_the_physical_one() {
-        for (gravity, zeta, pressed) in [(0.0, 0.0, false), (9.81, 0.02, false), (9.81, 0.0, true), (0.0, 0.01, true)] {
-            let n = 7;
-            let params = RotatingBeamParams {
-                length: 1.0,
-                mass_per_length: 0.86884,
-                bending_stiffness: 541.26,
-                hub_inertia: 0.05,
-                hub_radius: 0.1,
-                gravity,
-                n_modes: n,
-                order: Order::First,
-                modal_damping: vec![zeta],
-            };
-            let beam = RotatingBeam::new(params).unwrap();
-            let m = n + 1;
-            // A frozen part as the stepper makes it: J(0), K - theta0'^2 (M - D) bordered.
-            let mass = beam.mass_matrix(&DVector::zeros(m));
-            let stiff = &beam.k - &beam.m_minus_d * 4.0;
-            let border = |b: &DMatrix<f64>| DMatrix::from_fn(m, m, |i, j| if i == 0 || j == 0 { 0.0 } else { b[(i - 1, j - 1)] });
-            let (kb, cb) = (border(&stiff), border(&beam.damping));
-            let l = mass.clone().cholesky().unwrap().l();
-            let a = l.solve_lower_triangular(&l.solve_lower_triangular(&kb).unwrap().transpose()).unwrap();
-            let eig = SymmetricEigen::new(0.5 * (&a + a.transpose()));
-            let phi = l.transpose().solve_upper_triangular(&eig.eigenvectors).unwrap();
-            let psi = eig.eigenvectors.transpose() * l.transpose();
-            let omega2: Vec<f64> = eig.eigenvalues.iter().map(|x| x.max(0.0)).collect();
-            let cq = phi.transpose() * &cb * &phi;
-            let c: Vec<f64> = (0..m).map(|k| if omega2[k] > 0.0 { cq[(k, k)].max(0.0) } else { 0.0 }).collect();
-            let mut eq = beam.modal_equations(&phi, &psi, &omega2, &c);
-            let plane = Plane::new([0.3, -1.0], [1.1, 0.0]).unwrap();
-            let mut seed = 12345u64;
-            let mut next = move || {
-                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            };
-            for scale in [1e-6, 1e-3, 3e-2] {
-                let z: Vec<f64> = (0..m).map(|k| if k == 0 { 0.7 } else { scale * next() / (k * k) as f64 }).collect();
-                let zd: Vec<f64> = (0..m).map(|k| if k == 0 { 2.0 } else { 100.0 * scale * next() / k as f64 }).collect();
-                let (zv, zdv) = (DVector::from_column_slice(&z), DVector::from_column_slice(&zd));
-                let (p, pd) = (&psi * &zv, &psi * &zdv);
-                let law = |pen: f64, rate: f64| if pen > -1.0 { 1e5 * (pen + 1.0) + 30.0 * rate } else { 0.0 };
-                let (mut f1, mut f2) = (law, law);
-                let contact1 = pressed.then(|| (&plane, &mut f1 as &mut dyn FnMut(f64, f64) -> f64));
-                let contact2 = pressed.then(|| (&plane, &mut f2 as &mut dyn FnMut(f64, f64) -> f64));
-                // The physical route from Phi p (what the integrator does).
-                let (zp, zdp) = (&phi * &p, &phi * &pd);
-                let mut zdd = vec![0.0; m];
-                let t1 = beam.accelerations_in_place(zp.as_slice(), zdp.as_slice(), 0.3, contact1, &mut zdd, &mut Default::default()).unwrap();
-                let psi_zdd = &psi * DVector::from_column_slice(&zdd);
-                let mut g = vec![0.0; m];
-                let t2 = eq.remainder(&beam, p.as_slice(), pd.as_slice(), 0.3, contact2, &mut g).unwrap();
-                for k in 0..m {
-                    let reference = psi_zdd[k] + omega2[k] * p[k] + c[k] * pd[k];
-                    let size = psi_zdd[k].abs() + (omega2[k] * p[k]).abs() + (c[k] * pd[k]).abs() + 1e-300;
-                    assert!((g[k] - reference).abs() <= 1e-11 * size, "g={gravity} zeta={zeta} pressed={pressed} scale={scale} mode {k}: {} against {reference} (size {size})", g[k]);
+        for prescribed in [false, true] {
+            for (gravity, zeta, pressed) in [(0.0, 0.0, false), (9.81, 0.02, false), (9.81, 0.0, true), (0.0, 0.01, true)] {
+                check(prescribed, gravity, zeta, pressed);
+            }
+        }
+    }
+
+    fn check(prescribed: bool, gravity: f64, zeta: f64, pressed: bool) {
+        let n = 7;
+        let params = RotatingBeamParams {
+            length: 1.0,
+            mass_per_length: 0.86884,
+            bending_stiffness: 541.26,
+            hub_inertia: 0.05,
+            hub_radius: 0.1,
+            gravity,
+            n_modes: n,
+            order: Order::First,
+            modal_damping: vec![zeta],
+        };
+        let beam = RotatingBeam::new(params).unwrap();
+        let m = if prescribed { n } else { n + 1 };
+        // A frozen part as the stepper makes it: K - theta0'^2 (M - D),
+        // with J(0) and bordered for a torque-driven hub.
+        let stiff = &beam.k - &beam.m_minus_d * 4.0;
+        let border = |b: &DMatrix<f64>| DMatrix::from_fn(n + 1, n + 1, |i, j| if i == 0 || j == 0 { 0.0 } else { b[(i - 1, j - 1)] });
+        let (mass, kb, cb) = if prescribed { (beam.m.clone(), stiff, beam.damping.clone()) } else { (beam.mass_matrix(&DVector::zeros(n + 1)), border(&stiff), border(&beam.damping)) };
+        let l = mass.clone().cholesky().unwrap().l();
+        let a = l.solve_lower_triangular(&l.solve_lower_triangular(&kb).unwrap().transpose()).unwrap();
+        let eig = SymmetricEigen::new(0.5 * (&a + a.transpose()));
+        let phi = l.transpose().solve_upper_triangular(&eig.eigenvectors).unwrap();
+        let psi = eig.eigenvectors.transpose() * l.transpose();
+        let omega2: Vec<f64> = eig.eigenvalues.iter().map(|x| x.max(0.0)).collect();
+        let cq = phi.transpose() * &cb * &phi;
+        let c: Vec<f64> = (0..m).map(|k| if omega2[k] > 0.0 { cq[(k, k)].max(0.0) } else { 0.0 }).collect();
+        let mut eq = beam.modal_equations(&phi, &psi, &omega2, &c, prescribed);
+        let plane = Plane::new([0.3, -1.0], [1.1, 0.0]).unwrap();
+        let mut seed = 12345u64;
+        let mut next = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (theta, theta_dot, theta_ddot) = (0.7, 2.0, -3.0);
+        for scale in [1e-6, 1e-3, 3e-2] {
+            let z: Vec<f64> = (0..=n).map(|k| if k == 0 { theta } else { scale * next() / (k * k) as f64 }).collect();
+            let zd: Vec<f64> = (0..=n).map(|k| if k == 0 { theta_dot } else { 100.0 * scale * next() / k as f64 }).collect();
+            let (zv, zdv) = (DVector::from_column_slice(&z), DVector::from_column_slice(&zd));
+            let hub = m - n;
+            let (p, pd) = (&psi * zv.rows(1 - hub, m), &psi * zdv.rows(1 - hub, m));
+            let law = |pen: f64, rate: f64| if pen > -1.0 { 1e5 * (pen + 1.0) + 30.0 * rate } else { 0.0 };
+            // The physical route from Phi p (what the integrator does).
+            let (mut zp, mut zdp) = (zv.clone(), zdv.clone());
+            zp.rows_mut(1 - hub, m).copy_from(&(&phi * &p));
+            zdp.rows_mut(1 - hub, m).copy_from(&(&phi * &pd));
+            let mut zdd = DVector::zeros(n + 1);
+            let t1 = if prescribed {
+                let mut t = ContactTerms::default();
+                let mut qc = DVector::zeros(n + 1);
+                if pressed {
+                    (t.penetration, t.rate) = beam.plane_penetration(zp.as_slice(), zdp.as_slice(), &plane);
+                    t.force = law(t.penetration, t.rate);
+                    qc = beam.contact_generalized_force(&zp, &plane, t.force);
+                    t.hub_force = qc[0];
                 }
-                for (x, y) in [(t1.penetration, t2.penetration), (t1.rate, t2.rate), (t1.force, t2.force), (t1.hub_force, t2.hub_force)] {
-                    assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "contact terms {t1:?} against {t2:?}");
-                }
+                let mut bdd = DVector::zeros(n);
+                beam.prescribed_accelerations(&zp, &zdp, theta_ddot, Some(&qc), &mut bdd);
+                zdd.rows_mut(1, n).copy_from(&bdd);
+                t
+            } else {
+                let mut f1 = law;
+                let contact = pressed.then(|| (&plane, &mut f1 as &mut dyn FnMut(f64, f64) -> f64));
+                beam.accelerations_in_place(zp.as_slice(), zdp.as_slice(), 0.3, contact, zdd.as_mut_slice(), &mut Default::default()).unwrap()
+            };
+            let psi_zdd = &psi * zdd.rows(1 - hub, m);
+            let mut f2 = law;
+            let contact = pressed.then(|| (&plane, &mut f2 as &mut dyn FnMut(f64, f64) -> f64));
+            let motion = if prescribed { Hub::Prescribed { theta, theta_dot, theta_ddot } } else { Hub::Torque(0.3) };
+            let mut g = vec![0.0; m];
+            let t2 = eq.remainder(&beam, p.as_slice(), pd.as_slice(), motion, contact, &mut g).unwrap();
+            let case = format!("prescribed={prescribed} g={gravity} zeta={zeta} pressed={pressed} scale={scale}");
+            for k in 0..m {
+                let reference = psi_zdd[k] + omega2[k] * p[k] + c[k] * pd[k];
+                let size = psi_zdd[k].abs() + (omega2[k] * p[k]).abs() + (c[k] * pd[k]).abs() + 1e-300;
+                assert!((g[k] - reference).abs() <= 1e-11 * size, "{case} mode {k}: {} against {reference} (size {size})", g[k]);
+            }
+            for (x, y) in [(t1.penetration, t2.penetration), (t1.rate, t2.rate), (t1.force, t2.force), (t1.hub_force, t2.hub_force)] {
+                assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{case}: contact terms {t1:?} against {t2:?}");
             }
         }
     }
