@@ -142,6 +142,13 @@ impl DimensionlessMode {
         let v: f64 = (0..4).map(|i| self.a[i] * b[k][i]).sum();
         v * self.beta.powi(k as i32)
     }
+
+    /// [`Self::derivative`] for `k = 0..=3` from one evaluation of the
+    /// basis (the same values).
+    pub fn derivatives(&self, xi: f64) -> [f64; 4] {
+        let b = basis(self.beta, xi);
+        std::array::from_fn(|k| (0..4).map(|i| self.a[i] * b[k][i]).sum::<f64>() * self.beta.powi(k as i32))
+    }
 }
 
 /// A uniform beam. In scaled units (VSM12's) `L = mu = EI = 1`.
@@ -206,6 +213,21 @@ impl Beam {
 mod tests {
     use super::*;
     use std::f64::consts::SQRT_2;
+
+    #[test]
+    fn all_derivatives_at_once_are_each_ones_bits() {
+        for support in [Support::PinnedPinned, Support::ClampedFree, Support::ClampedClamped, Support::ClampedPinned] {
+            for j in [1, 2, 7, 40] {
+                let mode = DimensionlessMode::new(support, j);
+                for xi in [0.0, 0.013, 0.5, 0.77, 1.0] {
+                    let all = mode.derivatives(xi);
+                    for k in 0..4 {
+                        assert_eq!(all[k].to_bits(), mode.derivative(k, xi).to_bits(), "{support:?} mode {j} xi {xi} k {k}");
+                    }
+                }
+            }
+        }
+    }
 
     /// The textbook closed form for the cantilever (an independent
     /// writing of the same function).

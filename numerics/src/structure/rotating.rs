@@ -145,22 +145,30 @@ impl DimensionlessIntegrals {
             (DMatrix::zeros(n, n), DMatrix::zeros(n, n), DMatrix::zeros(n, n), DMatrix::zeros(n, n), DMatrix::zeros(n, n));
         let (mut gamma, mut sigma) = (DVector::zeros(n), DVector::zeros(n));
         let (mut w0, mut w1, mut w2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        // `wt W_i^(k)`, each product as `(wt W_i) W_j`.
+        let (mut u0, mut u1, mut u2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for_each_node(0.0, 1.0, panels, |xi, wt| {
             for (i, mode) in modes.iter().enumerate() {
-                w0[i] = mode.derivative(0, xi);
-                w1[i] = mode.derivative(1, xi);
-                w2[i] = mode.derivative(2, xi);
+                [w0[i], w1[i], w2[i], _] = mode.derivatives(xi);
+                (u0[i], u1[i], u2[i]) = (wt * w0[i], wt * w1[i], wt * w2[i]);
             }
             for i in 0..n {
                 gamma[i] += wt * xi * w0[i];
-                sigma[i] += wt * w0[i];
-                for j in 0..=i {
-                    let pp = wt * w1[i] * w1[j];
-                    m[(i, j)] += wt * w0[i] * w0[j];
-                    k[(i, j)] += wt * w2[i] * w2[j];
-                    d[(i, j)] += 0.5 * (1.0 - xi * xi) * pp;
-                    s[(i, j)] += (1.0 - xi) * pp;
-                    c[(i, j)] += pp;
+                sigma[i] += u0[i];
+            }
+            let (cd, cs) = (0.5 * (1.0 - xi * xi), 1.0 - xi);
+            // The lower triangles column by column (contiguous).
+            for j in 0..n {
+                let range = j * n + j..(j + 1) * n;
+                let (mj, kj, dj, sj, cj) = (&mut m.as_mut_slice()[range.clone()], &mut k.as_mut_slice()[range.clone()], &mut d.as_mut_slice()[range.clone()], &mut s.as_mut_slice()[range.clone()], &mut c.as_mut_slice()[range]);
+                let (a0, a1, a2) = (w0[j], w1[j], w2[j]);
+                for (r, i) in (j..n).enumerate() {
+                    let pp = u1[i] * a1;
+                    mj[r] += u0[i] * a0;
+                    kj[r] += u2[i] * a2;
+                    dj[r] += cd * pp;
+                    sj[r] += cs * pp;
+                    cj[r] += pp;
                 }
             }
         });
