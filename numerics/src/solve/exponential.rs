@@ -264,13 +264,23 @@ pub struct Exponential<R: Rhs> {
     pub accepted: u64,
     pub rejected: u64,
     pub evaluations: u64,
-    /// The last dense query: time, state, derivative.
-    dense_cache: std::cell::RefCell<Option<(f64, Vec<f64>, Vec<f64>)>>,
+    /// The last dense query.
+    dense_cache: std::cell::RefCell<Option<DensePoint>>,
     /// The modes' responses at the nodes (node 0 unused) of the step
     /// sizes used last, the newest last.
     node_responses: Vec<(f64, Arc<Vec<Responses>>)>,
     scratch_y: Vec<f64>,
     scratch_f: Vec<f64>,
+}
+
+/// A dense query's time, modal and physical states, and the physical
+/// derivative once asked for.
+#[derive(Clone, Debug)]
+struct DensePoint {
+    t: f64,
+    q: Vec<f64>,
+    y: Vec<f64>,
+    dy: Option<Vec<f64>>,
 }
 
 /// [`Nodes`] shared between clones.
@@ -529,49 +539,56 @@ impl<R: ModalRhs> Exponential<R> {
     /// The dense output of the last step at `t` (full order); `false`
     /// before a step.
     pub fn dense(&self, t: f64, out: &mut [f64]) -> bool {
-        self.dense_pair(t, |y, _| out.copy_from_slice(y))
+        let Some(mut cache) = self.dense_point(t) else { return false };
+        out.copy_from_slice(&cache.as_mut().expect("a dense point").y);
+        true
     }
 
     /// Its time derivative: `L q + [0; g(tau); s(tau)]`.
     pub fn dense_derivative(&self, t: f64, out: &mut [f64]) -> bool {
-        self.dense_pair(t, |_, dy| out.copy_from_slice(dy))
+        let Some((t0, h, _, poly)) = &self.last else { return false };
+        let Some(mut cache) = self.dense_point(t) else { return false };
+        let point = cache.as_mut().expect("a dense point");
+        if point.dy.is_none() {
+            let modes = &self.modes;
+            let (m, n) = (modes.len(), point.q.len());
+            let sigma = (t - t0) / h;
+            let value = |c: &[f64; NODES]| c.iter().rev().fold(0.0, |acc, ci| acc * sigma + ci);
+            let q = &point.q;
+            let mut dq = vec![0.0; n];
+            for k in 0..m {
+                dq[k] = q[m + k];
+                dq[m + k] = value(&poly.coefficients[k]) - modes.omega2[k] * q[k] - modes.damping[k] * q[m + k];
+            }
+            for e in 0..(n - 2 * m) {
+                dq[2 * m + e] = value(&poly.coefficients[m + e]);
+            }
+            let mut dy = vec![0.0; n];
+            modes.to_physical(&dq, &mut dy);
+            point.dy = Some(dy);
+        }
+        out.copy_from_slice(point.dy.as_ref().expect("just made"));
+        true
     }
 
-    /// The dense state and its derivative at `t` to `read` (the last pair
-    /// kept: a switch search asks for both at one time).
-    fn dense_pair(&self, t: f64, read: impl FnOnce(&[f64], &[f64])) -> bool {
-        let Some((t0, h, q0, poly)) = &self.last else { return false };
+    /// The dense point at `t`, kept (a switch search asks for the state
+    /// and often its derivative at one time); `None` before a step.
+    fn dense_point(&self, t: f64) -> Option<std::cell::RefMut<'_, Option<DensePoint>>> {
+        let (t0, h, q0, poly) = self.last.as_ref()?;
         let mut cache = self.dense_cache.borrow_mut();
-        if let Some((tc, y, dy)) = cache.as_ref() {
-            if *tc == t {
-                read(y, dy);
-                return true;
-            }
+        if cache.as_ref().is_some_and(|p| p.t == t) {
+            return Some(cache);
         }
         let modes = &self.modes;
-        let m = modes.len();
         let n = q0.len();
-        let tau = t - t0;
         let mut r = Responses::default();
-        r.compute(modes, tau, *h);
+        r.compute(modes, t - t0, *h);
         let mut q = vec![0.0; n];
         Self::state_at(modes, q0, poly, &r, *h, &mut q);
-        let sigma = tau / h;
-        let value = |c: &[f64; NODES]| c.iter().rev().fold(0.0, |acc, ci| acc * sigma + ci);
-        let mut dq = vec![0.0; n];
-        for k in 0..m {
-            dq[k] = q[m + k];
-            dq[m + k] = value(&poly.coefficients[k]) - modes.omega2[k] * q[k] - modes.damping[k] * q[m + k];
-        }
-        for e in 0..(n - 2 * m) {
-            dq[2 * m + e] = value(&poly.coefficients[m + e]);
-        }
-        let (mut y, mut dy) = (vec![0.0; n], vec![0.0; n]);
+        let mut y = vec![0.0; n];
         modes.to_physical(&q, &mut y);
-        modes.to_physical(&dq, &mut dy);
-        read(&y, &dy);
-        *cache = Some((t, y, dy));
-        true
+        *cache = Some(DensePoint { t, q, y, dy: None });
+        Some(cache)
     }
 
     /// A bound on `|d/dt (w . z)|` over the last step for a fixed row `w`
