@@ -230,9 +230,9 @@ impl Phase {
         Ok(())
     }
 
-    /// `run` given the contact a torque-driven hub's equations take: the
-    /// surface and the law's force `(penetration, rate)`, when pressed
-    /// (only a pressed contact pushes), else `None`.
+    /// `run` given the contact the beam's equations take: the surface and
+    /// the law's force `(penetration, rate)`, when pressed (only a pressed
+    /// contact pushes), else `None`.
     pub(super) fn with_pushing_law<T>(&self, run: impl FnOnce(Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>) -> T) -> T {
         let onset_speed = self.onset_speed;
         let surface = self.model.surface.as_ref();
