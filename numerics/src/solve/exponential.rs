@@ -40,6 +40,7 @@ use nalgebra::{DMatrix, SymmetricEigen};
 use super::dop853::Rhs;
 use super::oscillator::Oscillator;
 use super::phi::phi_columns;
+use super::switch::SAMPLES;
 
 /// A right-hand side that can also give the remainder `g` directly from
 /// the modal state `q = [p; p'; r]` of the linear part it was built for
@@ -305,6 +306,9 @@ pub struct Exponential<R: Rhs> {
     /// The modes' responses at the nodes (node 0 unused) of the step
     /// sizes used last, the newest last.
     node_responses: Vec<(f64, Arc<Vec<Responses>>)>,
+    /// The same at the switch locator's samples inside a step
+    /// ([`super::switch::grid`]), as the dense output is asked there.
+    grid_responses: std::cell::RefCell<Vec<(f64, [Option<Responses>; SAMPLES - 1])>>,
     scratch_y: Vec<f64>,
     scratch_f: Vec<f64>,
 }
@@ -366,6 +370,7 @@ impl<R: ModalRhs> Exponential<R> {
             contraction: None,
             steps_since_measured: 0,
             node_responses: Vec::new(),
+            grid_responses: Default::default(),
             scratch_y: vec![0.0; n],
             scratch_f: vec![0.0; n],
         };
@@ -653,14 +658,53 @@ impl<R: ModalRhs> Exponential<R> {
         }
         let modes = &self.modes;
         let n = q0.len();
-        let mut r = Responses::default();
-        r.compute(modes, t - t0, *h);
         let mut q = vec![0.0; n];
-        Self::state_at(modes, q0, poly, &r, *h, &mut q);
+        match self.grid_responses(*t0, *h, t) {
+            Some(r) => Self::state_at(modes, q0, poly, &r, *h, &mut q),
+            None => {
+                let mut r = Responses::default();
+                r.compute(modes, t - t0, *h);
+                Self::state_at(modes, q0, poly, &r, *h, &mut q);
+            }
+        }
         let mut y = vec![0.0; n];
         modes.to_physical(&q, &mut y);
         *cache = Some(DensePoint { t, q, y, dy: None });
         Some(cache)
+    }
+
+    /// The kept responses for `t` when it is a sample of the switch
+    /// locator's grid over the last step `[t0, t0 + h]` (within a few
+    /// ulps of `t0 + h k / SAMPLES`: the state there is taken at that
+    /// offset), computed at the first such query for the step size.
+    fn grid_responses(&self, t0: f64, h: f64, t: f64) -> Option<std::cell::Ref<'_, Responses>> {
+        let slack = 4.0 * f64::EPSILON * t.abs().max(t0.abs());
+        let k = ((t - t0) / h * SAMPLES as f64).round();
+        if !(k >= 1.0 && k < SAMPLES as f64) {
+            return None;
+        }
+        let k = k as usize;
+        if (t - t0 - grid_offset(h, k)).abs() > slack {
+            return None;
+        }
+        let mut kept = self.grid_responses.borrow_mut();
+        let i = match kept.iter().position(|(size, _)| *size == h) {
+            Some(i) => i,
+            None => {
+                if kept.len() == RESPONSE_SETS {
+                    kept.remove(0);
+                }
+                kept.push((h, Default::default()));
+                kept.len() - 1
+            }
+        };
+        if kept[i].1[k - 1].is_none() {
+            let mut r = Responses::default();
+            r.compute(&self.modes, grid_offset(h, k), h);
+            kept[i].1[k - 1] = Some(r);
+        }
+        drop(kept);
+        Some(std::cell::Ref::map(self.grid_responses.borrow(), |kept| kept[i].1[k - 1].as_ref().expect("just computed")))
     }
 
     /// A bound on `|d/dt (w . z)|` over the last step for a fixed row `w`
@@ -684,6 +728,11 @@ impl<R: ModalRhs> Exponential<R> {
     pub fn counts(&self) -> (u64, u64) {
         (self.accepted, self.rejected)
     }
+}
+
+/// The offset of the switch locator's sample `k` in a step of size `h`.
+fn grid_offset(h: f64, k: usize) -> f64 {
+    h * k as f64 / SAMPLES as f64
 }
 
 /// The next representable f64 above `x` (finite `x`).
