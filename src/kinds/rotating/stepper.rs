@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use super::system::Phase;
 use crate::contact::Contact;
-use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations};
+use crate::structure::rotating::{AccelerationScratch, FrozenPart, Hub, ModalEquations};
 use crate::solve::dop853::{Dop853, Rhs};
 use crate::solve::exponential::{Exponential, LinearModes, ModalRhs};
 use crate::solve::radau::{Radau, RadauOptions, Tol};
@@ -76,10 +76,21 @@ impl PhaseRhs {
         PhaseRhs { phase: phase.clone(), y: DVector::zeros(n), dy: DVector::zeros(n), scratch: AccelerationScratch::default(), modal: None }
     }
 
-    /// [`Self::new`] with the remainder in the coordinates of `modes`.
-    fn with_modes(phase: &Phase, n: usize, modes: &LinearModes) -> Self {
-        let mut rhs = Self::new(phase, n);
-        rhs.modal = Some(phase.model.beam.modal_equations(modes.phi(), modes.psi(), modes.omega2(), modes.damping(), phase.prescribed()));
+    /// [`Self::new`] with the remainder in the coordinates of `modes`,
+    /// the linear part frozen at `(t0, y0)`.
+    fn with_modes(phase: &Phase, modes: &LinearModes, t0: f64, y0: &DVector<f64>) -> Self {
+        let mut rhs = Self::new(phase, y0.len());
+        let (theta, theta_dot) = phase.frozen_hub(t0, y0);
+        let frozen = FrozenPart {
+            phi: modes.phi(),
+            psi: modes.psi(),
+            omega2: modes.omega2(),
+            damping: modes.damping(),
+            theta_dot,
+            theta,
+            prescribed: phase.prescribed(),
+        };
+        rhs.modal = Some(phase.model.beam.modal_equations(frozen));
         rhs
     }
 }
@@ -144,7 +155,7 @@ impl Stepper {
                 let n = y0.len();
                 let (rtol, atol) = dop853_tolerances(options, n);
                 let modes = phase.linear_modes(t0, y0)?;
-                let solver = Exponential::new(PhaseRhs::with_modes(phase, n, &modes), std::sync::Arc::new(modes), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
+                let solver = Exponential::new(PhaseRhs::with_modes(phase, &modes, t0, y0), std::sync::Arc::new(modes), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
                 if !solver.y().iter().all(|x| x.is_finite()) {
                     return Err("the start state is not finite".into());
                 }

@@ -80,8 +80,8 @@ impl Phase {
     pub fn linear_modes(&self, t: f64, y: &DVector<f64>) -> Result<LinearModes, String> {
         let n = self.n();
         let beam = &self.model.beam;
-        let (z, zd) = self.coords(t, y);
-        let (thd, sn) = (zd[0], z[0].sin());
+        let (theta, thd) = self.frozen_hub(t, y);
+        let sn = theta.sin();
         let stiffness = &beam.k - &self.model.m_minus_d * (thd * thd) - &self.model.s_geo * (beam.params.gravity * sn);
         match self.model.prescribed() {
             Some(_) => LinearModes::new(&beam.m, &stiffness, &beam.damping),
@@ -91,6 +91,12 @@ impl Phase {
                 LinearModes::new(&mass, &border(&stiffness), &border(&beam.damping))
             }
         }
+    }
+
+    /// The hub's angle and speed [`Self::linear_modes`] freezes at `(t, y)`.
+    pub fn frozen_hub(&self, t: f64, y: &DVector<f64>) -> (f64, f64) {
+        let (z, zd) = self.coords(t, y);
+        (z[0], zd[0])
     }
 
     /// `(z, z')` at time `t` from `y`.

@@ -17,11 +17,24 @@
 //! and every term of `Q_B` and of the hub's equation is linear or
 //! quadratic in `p` and `p'` through products fixed with the frozen part:
 //! `b.(M - D) b = p.(G p)` and `b'.(M - D) b = p'.(G p)` with `G =
-//! Phi_B^T (M - D) Phi_B`; `W (M - D) b = H p`; `W K b` folded with
-//! `Omega^2 p` into `E p`, `E = diag(Omega^2) - W K Phi_B`; likewise the
-//! damping, gravity's `S` and the tip's shortening `C_L`. Per evaluation
-//! that is three `(N + 1)^2` products in free flight (`G p`, `H p`, `E p`)
-//! instead of six (`Phi p`, `Phi p'`, `(M - D) b`, `K b`, `M^-1 Q_B`,
+//! Phi_B^T (M - D) Phi_B`; `W (M - D) b = H p`; likewise the damping,
+//! gravity's `S` and the tip's shortening `C_L`.
+//!
+//! The frozen part's own terms cancel in closed form. It was frozen at a
+//! hub speed `theta0'` and angle `theta0`: `K0 = K - theta0'^2 (M - D) -
+//! g sin(theta0) S` with the undeflected `J` (or `M`), so `Omega^2 p = W K0
+//! b - u kappa.p - L p`, `kappa.p = a . K0 b / (J_h + J_b - Gamma . a)`
+//! (`kappa = 0` for a prescribed hub), with `L` what `diag(Omega^2)` leaves
+//! of the frozen part: a clamped negative eigenvalue, and the eigensolver's
+//! error. Hence
+//!
+//! `g = u (theta'' - kappa.p) + (theta'^2 - theta0'^2) H p + L p + g (sin
+//! theta - sin theta0) W S b - g cos theta W sigma + (contact, damping)`:
+//!
+//! what the linear part leaves out and nothing it holds. `L`'s entries
+//! are about 1e-16 of the largest `omega^2`, so only the slow modes' rows
+//! matter beside its diagonal. Per evaluation that is two `(N + 1)^2`
+//! products in free flight (`G p`, `H p`) and a few rows, instead of six (`Phi p`, `Phi p'`, `(M - D) b`, `K b`, `M^-1 Q_B`,
 //! `Psi z''`); damping, gravity and a pressed contact add theirs.
 
 use nalgebra::DMatrix;
@@ -36,6 +49,24 @@ pub enum Hub {
     Prescribed { theta: f64, theta_dot: f64, theta_ddot: f64 },
 }
 
+/// A frozen linear part (the exponential integrator's) as the remainder
+/// needs it.
+#[derive(Clone, Copy, Debug)]
+pub struct FrozenPart<'a> {
+    /// `z = Phi p`, `p = Psi z` (`z = [theta; B]` for a torque-driven hub,
+    /// `z = B` for a prescribed one).
+    pub phi: &'a DMatrix<f64>,
+    pub psi: &'a DMatrix<f64>,
+    /// Per mode `omega^2` and the damping `c`.
+    pub omega2: &'a [f64],
+    pub damping: &'a [f64],
+    /// The hub speed and angle `K0 = K - theta0'^2 (M - D) - g
+    /// sin(theta0) S` was frozen at.
+    pub theta_dot: f64,
+    pub theta: f64,
+    pub prescribed: bool,
+}
+
 /// Products of one frozen linear part with the beam's matrices
 /// (column-major `m x m`, `m` the modal coordinates: `N + 1` for a
 /// torque-driven hub, `N` for a prescribed one).
@@ -47,10 +78,16 @@ pub struct ModalEquations {
     phi_hub: Vec<f64>,
     phi_w: Vec<f64>,
     phi_sigma: Vec<f64>,
-    /// `G`, `H`, `E` (module doc).
+    /// `G`, `H` (module doc).
     g_md: DMatrix<f64>,
     h_md: DMatrix<f64>,
-    e_k: DMatrix<f64>,
+    /// The frozen part: `theta0'^2`, `sin theta0`, `kappa`; `L` (module
+    /// doc): the slow modes' rows, every mode's diagonal.
+    frozen_w2: f64,
+    frozen_sin: f64,
+    kappa: Vec<f64>,
+    left_slow: DMatrix<f64>,
+    left_diagonal: Vec<f64>,
     /// `diag(c) - W C Phi_B` (`None`: no damping).
     e_c: Option<DMatrix<f64>>,
     /// `u`; `Phi_B^T X^T a` for `X = M - D, K, C, S, C_L` (the hub's
@@ -73,13 +110,15 @@ pub struct ModalEquations {
 }
 
 impl RotatingBeam {
-    /// The products of the frozen linear part `z = phi p`, `p = psi z`
-    /// (`z = [theta; B]` for a torque-driven hub, `z = B` for a
-    /// `prescribed` one), its modes' `omega^2` and damping `c`.
-    pub fn modal_equations(&self, phi: &DMatrix<f64>, psi: &DMatrix<f64>, omega2: &[f64], c: &[f64], prescribed: bool) -> ModalEquations {
+    /// The products of the frozen linear part `frozen`.
+    pub fn modal_equations(&self, frozen: FrozenPart<'_>) -> ModalEquations {
+        let FrozenPart { phi, psi, omega2, damping: c, theta_dot, theta, prescribed } = frozen;
         let n = self.n_modes();
         let m = if prescribed { n } else { n + 1 };
-        assert!(phi.shape() == (m, m) && psi.shape() == (m, m) && omega2.len() == m && c.len() == m, "modal_equations: {m} modal coordinates expected");
+        assert!(
+            phi.shape() == (m, m) && psi.shape() == (m, m) && omega2.len() == m && c.len() == m,
+            "modal_equations: {m} modal coordinates expected"
+        );
         let hub = m - n;
         let phi_b = phi.rows(hub, n).into_owned();
         let psi_b = psi.columns(hub, n).into_owned();
@@ -89,10 +128,8 @@ impl RotatingBeam {
         let quad = |x: &DMatrix<f64>| &pt * (x * &phi_b);
         let proj = |x: &DMatrix<f64>| &w * (x * &phi_b);
         let along_a = |x: &DMatrix<f64>| (&pt * (x.transpose() * a)).as_slice().to_vec();
-        let mut e_k = -proj(&self.k);
         let mut e_c = (!self.undamped).then(|| -proj(&self.damping));
         for k in 0..m {
-            e_k[(k, k)] += omega2[k];
             if let Some(e) = e_c.as_mut() {
                 e[(k, k)] += c[k];
             }
@@ -100,6 +137,26 @@ impl RotatingBeam {
         let e_c = e_c.or_else(|| c.iter().any(|x| *x != 0.0).then(|| DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(c))));
         let u = if prescribed { -(&w * &self.gamma) } else { psi.column(0) - &psi_b * a };
         let gravity = (self.params.gravity != 0.0).then(|| (quad(&self.s_geo), proj(&self.s_geo), (&w * &self.sigma).as_slice().to_vec()));
+        let (a_md, a_k, a_s) = (along_a(&self.m_minus_d), along_a(&self.k), along_a(&self.s_geo));
+        let (frozen_w2, frozen_sin) = (theta_dot * theta_dot, theta.sin());
+        let schur_0 = self.params.hub_inertia + self.j_b - self.gamma_m_inv_gamma;
+        let kappa = if prescribed {
+            vec![0.0; m]
+        } else {
+            (0..m).map(|k| (a_k[k] - frozen_w2 * a_md[k] - self.params.gravity * frozen_sin * a_s[k]) / schur_0).collect()
+        };
+        // `L = diag(Omega^2) - (W K0 Phi_B - u kappa^T)` (module doc). Its
+        // entries, about 1e-16 of the largest `omega^2`, are not small
+        // beside a slow mode's (1e-10 of the first's at 32 modes: a shift
+        // of its frequency and a coupling the run would accumulate), so
+        // the slow modes' rows are kept whole, the others' diagonals.
+        let k0_phi = (&self.k - &self.m_minus_d * frozen_w2 - &self.s_geo * (self.params.gravity * frozen_sin)) * &phi_b;
+        let own = &w * &k0_phi;
+        let left = DMatrix::from_fn(m, m, |i, j| if i == j { omega2[i] } else { 0.0 } - (own[(i, j)] - u[i] * kappa[j]));
+        let matters = |i: usize| (0..m).any(|j| j != i && left[(i, j)].abs() > LEFT_RELATIVE * omega2[i]);
+        let slow_rows = (0..m).rev().find(|&i| matters(i)).map_or(0, |i| i + 1);
+        let left_slow = left.rows(0, slow_rows).into_owned();
+        let left_diagonal: Vec<f64> = (0..m).map(|k| left[(k, k)]).collect();
         ModalEquations {
             m,
             prescribed,
@@ -108,23 +165,31 @@ impl RotatingBeam {
             phi_sigma: (&pt * &self.sigma).as_slice().to_vec(),
             g_md: quad(&self.m_minus_d),
             h_md: proj(&self.m_minus_d),
-            e_k,
+            frozen_w2,
+            frozen_sin,
+            kappa,
+            left_slow,
+            left_diagonal,
             e_c,
             u: u.as_slice().to_vec(),
-            a_md: along_a(&self.m_minus_d),
-            a_k: along_a(&self.k),
+            a_md,
+            a_k,
             a_c: along_a(&self.damping),
-            a_s: along_a(&self.s_geo),
+            a_s,
             a_l: along_a(&self.c_tip),
             a_sigma: a.dot(&self.sigma),
             a_w: a.dot(&self.w),
             gravity,
             tip: (quad(&self.c_tip), proj(&self.c_tip), (&w * &self.w).as_slice().to_vec()),
-            schur_0: self.params.hub_inertia + self.j_b - self.gamma_m_inv_gamma,
+            schur_0,
             scratch: Default::default(),
         }
     }
 }
+
+/// A row of `L` (module doc) is kept whole when an entry off its
+/// diagonal exceeds this share of the row's `omega^2`.
+const LEFT_RELATIVE: f64 = 1e-14;
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -208,12 +273,18 @@ impl ModalEquations {
                 (q0 - a_qb) / schur
             }
         };
-        // The modes: u theta'' + theta'^2 H p + E p (+ E_c p', gravity, contact).
+        // The modes (module doc): u (theta'' - kappa.p) + (theta'^2 -
+        // theta0'^2) H p (+ E_c p', gravity, contact).
         mat_vec(self.h_md.as_slice(), p, hp);
-        mat_vec(self.e_k.as_slice(), p, g);
-        let w2 = thd * thd;
+        let hub = thdd - dot(&self.kappa, p);
+        let dw2 = thd * thd - self.frozen_w2;
+        let slow = self.left_slow.nrows();
+        mat_vec(self.left_slow.as_slice(), p, &mut g[..slow]);
+        for k in slow..m {
+            g[k] = self.left_diagonal[k] * p[k];
+        }
         for k in 0..m {
-            g[k] += self.u[k] * thdd + w2 * hp[k];
+            g[k] += self.u[k] * hub + dw2 * hp[k];
         }
         if let Some(e_c) = &self.e_c {
             mat_vec(e_c.as_slice(), pd, tmp);
@@ -224,7 +295,7 @@ impl ModalEquations {
         if let Some((_, hs, w_sigma)) = &self.gravity {
             mat_vec(hs.as_slice(), p, tmp);
             for k in 0..m {
-                g[k] += grav * (sn * tmp[k] - cs * w_sigma[k]);
+                g[k] += grav * ((sn - self.frozen_sin) * tmp[k] - cs * w_sigma[k]);
             }
         }
         if let Some((f, lx, ly)) = pushing {
@@ -272,9 +343,11 @@ mod tests {
         };
         let beam = RotatingBeam::new(params).unwrap();
         let m = if prescribed { n } else { n + 1 };
-        // A frozen part as the stepper makes it: K - theta0'^2 (M - D),
-        // with J(0) and bordered for a torque-driven hub.
-        let stiff = &beam.k - &beam.m_minus_d * 4.0;
+        // A frozen part as the stepper makes it: K - theta0'^2 (M - D) - g
+        // sin(theta0) S, with J(0) and bordered for a torque-driven hub
+        // (frozen at another hub speed and angle than the state's).
+        let (frozen_theta, frozen_theta_dot) = (0.4, 1.5);
+        let stiff = &beam.k - &beam.m_minus_d * (frozen_theta_dot * frozen_theta_dot) - &beam.s_geo * (gravity * f64::sin(frozen_theta));
         let border = |b: &DMatrix<f64>| DMatrix::from_fn(n + 1, n + 1, |i, j| if i == 0 || j == 0 { 0.0 } else { b[(i - 1, j - 1)] });
         let (mass, kb, cb) = if prescribed { (beam.m.clone(), stiff, beam.damping.clone()) } else { (beam.mass_matrix(&DVector::zeros(n + 1)), border(&stiff), border(&beam.damping)) };
         let l = mass.clone().cholesky().unwrap().l();
@@ -285,7 +358,8 @@ mod tests {
         let omega2: Vec<f64> = eig.eigenvalues.iter().map(|x| x.max(0.0)).collect();
         let cq = phi.transpose() * &cb * &phi;
         let c: Vec<f64> = (0..m).map(|k| if omega2[k] > 0.0 { cq[(k, k)].max(0.0) } else { 0.0 }).collect();
-        let mut eq = beam.modal_equations(&phi, &psi, &omega2, &c, prescribed);
+        let frozen = FrozenPart { phi: &phi, psi: &psi, omega2: &omega2, damping: &c, theta_dot: frozen_theta_dot, theta: frozen_theta, prescribed };
+        let mut eq = beam.modal_equations(frozen);
         let plane = Plane::new([0.3, -1.0], [1.1, 0.0]).unwrap();
         let mut seed = 12345u64;
         let mut next = move || {
