@@ -1,9 +1,9 @@
 //! The rotating beam's integrators behind one interface: the exponential
 //! integrator ([`crate::solve::exponential`]: the bending modes' linear
 //! response at the phase's start, with its hub speed's stiffening,
-//! propagated exactly, the remainder collocated; `auto` from 24 modes
+//! propagated exactly, the remainder collocated; `auto` from 16 modes
 //! on), DOP853 ([`crate::solve::dop853`], explicit, order 8 with a
-//! 7th-order dense output; `auto` below 24 modes) and Radau IIA
+//! 7th-order dense output; `auto` below 16 modes) and Radau IIA
 //! ([`crate::solve::radau`], L-stable, order 5).
 //!
 //! All three take the phase's tolerances ([`RadauOptions`]: rtol, atol per
@@ -43,10 +43,11 @@ pub enum Method {
 
 /// From this many modes on, `auto` integrates exponentially: below, the
 /// highest mode is not stiff enough for the exact linear part to pay for
-/// its dense output's cost (docs/performance.md: DWZ at 6 modes, DOP853
-/// about 4 times faster at equal error; about even at 20; at 32 the
-/// exponential integrator about 2 times faster, at 64 more).
-pub const EXPONENTIAL_FROM_MODES: usize = 24;
+/// its dense output's cost (docs/performance.md, at an error of 1e-8:
+/// DWZ at 6 modes, DOP853 about 2 times faster; at 12 1.1 times; at 16
+/// even; at 24 the exponential integrator 1.8 times faster, at 32 and 64
+/// more).
+pub const EXPONENTIAL_FROM_MODES: usize = 16;
 
 impl Method {
     /// The integrator `self` means for `n_modes` modes.
