@@ -33,7 +33,7 @@
 //! mode, a quarter of a step's work at 32 modes) are kept per size and
 //! shared by the steps of that size.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
@@ -61,8 +61,8 @@ pub const DEGREE: usize = 6;
 const NODES: usize = DEGREE + 1;
 /// Sweeps per attempt before the step is halved.
 const MAX_SWEEPS: usize = 12;
-/// Step sizes whose node responses are kept.
-const RESPONSE_SETS: usize = 16;
+/// Step sizes whose responses are kept (per [`LinearModes`]).
+const RESPONSE_SETS: usize = 48;
 
 /// The Picard sweeps' contraction, measured on the phase's steps: the
 /// ratio of the end's last two moves in a step that swept until its end
@@ -105,6 +105,17 @@ pub struct LinearModes {
     omega2: Vec<f64>,
     damping: Vec<f64>,
     oscillators: Vec<Oscillator>,
+    /// The modes' responses per step size, kept for every integration
+    /// with these modes (a pure function of them and the size).
+    memo: Arc<Mutex<ResponseMemo>>,
+}
+
+/// The modes' responses at the nodes (node 0 unused) and at the switch
+/// locator's samples inside a step ([`super::switch::grid`], computed
+/// at the first query), per step size, the newest last.
+#[derive(Debug, Default)]
+struct ResponseMemo {
+    sizes: Vec<(f64, Arc<Vec<Responses>>, [Option<Arc<Responses>>; SAMPLES - 1])>,
 }
 
 impl LinearModes {
@@ -136,7 +147,7 @@ impl LinearModes {
                 Oscillator::new(w, if w > 0.0 { 0.5 * c / w } else { 0.0 })
             })
             .collect();
-        Ok(LinearModes { phi, psi, omega2, damping, oscillators })
+        Ok(LinearModes { phi, psi, omega2, damping, oscillators, memo: Default::default() })
     }
 
     pub fn len(&self) -> usize {
@@ -168,6 +179,42 @@ impl LinearModes {
 
     pub fn damping(&self) -> &[f64] {
         &self.damping
+    }
+
+    /// The responses at the nodes `c` of a step of size `h`: kept, or
+    /// computed and kept (the oldest size dropped).
+    fn node_responses(&self, c: &[f64; NODES], h: f64) -> Arc<Vec<Responses>> {
+        let mut memo = self.memo.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(i) = memo.sizes.iter().position(|e| e.0 == h) {
+            let entry = memo.sizes.remove(i);
+            let responses = entry.1.clone();
+            memo.sizes.push(entry);
+            return responses;
+        }
+        let mut responses = vec![Responses::default(); NODES];
+        for j in 1..NODES {
+            responses[j].compute(self, c[j] * h, h);
+        }
+        let responses = Arc::new(responses);
+        if memo.sizes.len() == RESPONSE_SETS {
+            memo.sizes.remove(0);
+        }
+        memo.sizes.push((h, responses.clone(), Default::default()));
+        responses
+    }
+
+    /// The responses at the switch locator's sample `k` (`1 <= k <
+    /// SAMPLES`) of a step of size `h` whose node responses are kept;
+    /// `None` if they are not.
+    fn grid_response(&self, h: f64, k: usize) -> Option<Arc<Responses>> {
+        let mut memo = self.memo.lock().unwrap_or_else(|e| e.into_inner());
+        let entry = memo.sizes.iter_mut().rev().find(|e| e.0 == h)?;
+        if entry.2[k - 1].is_none() {
+            let mut r = Responses::default();
+            r.compute(self, grid_offset(h, k), h);
+            entry.2[k - 1] = Some(Arc::new(r));
+        }
+        entry.2[k - 1].clone()
     }
 
     /// `q = [Psi z; Psi z'; r]` from `y = [z; z'; r]`.
@@ -303,12 +350,6 @@ pub struct Exponential<R: Rhs> {
     /// since a step measured it.
     contraction: Option<Contraction>,
     steps_since_measured: u32,
-    /// The modes' responses at the nodes (node 0 unused) of the step
-    /// sizes used last, the newest last.
-    node_responses: Vec<(f64, Arc<Vec<Responses>>)>,
-    /// The same at the switch locator's samples inside a step
-    /// ([`super::switch::grid`]), as the dense output is asked there.
-    grid_responses: std::cell::RefCell<Vec<(f64, [Option<Responses>; SAMPLES - 1])>>,
     scratch_y: Vec<f64>,
     scratch_f: Vec<f64>,
 }
@@ -369,8 +410,6 @@ impl<R: ModalRhs> Exponential<R> {
             dense_cache: Default::default(),
             contraction: None,
             steps_since_measured: 0,
-            node_responses: Vec::new(),
-            grid_responses: Default::default(),
             scratch_y: vec![0.0; n],
             scratch_f: vec![0.0; n],
         };
@@ -491,7 +530,7 @@ impl<R: ModalRhs> Exponential<R> {
                 return Err(ExpStepError::TooSmallStep);
             }
             let modes = self.modes.clone();
-            let responses = self.node_responses_for(h);
+            let responses = self.modes.node_responses(&nodes_c, h);
             // The first sweep's remainders: the last polynomial (this
             // step's rejected attempt, or the last step's) carried on.
             let start = match &attempt {
@@ -591,28 +630,6 @@ impl<R: ModalRhs> Exponential<R> {
         }
     }
 
-    /// The modes' responses at the nodes of a step of size `h`: kept, or
-    /// computed and kept (the oldest size dropped).
-    fn node_responses_for(&mut self, h: f64) -> Arc<Vec<Responses>> {
-        if let Some(i) = self.node_responses.iter().position(|(size, _)| *size == h) {
-            let entry = self.node_responses.remove(i);
-            let responses = entry.1.clone();
-            self.node_responses.push(entry);
-            return responses;
-        }
-        let c = self.nodes.0.c;
-        let mut responses = vec![Responses::default(); NODES];
-        for j in 1..NODES {
-            responses[j].compute(&self.modes, c[j] * h, h);
-        }
-        let responses = Arc::new(responses);
-        if self.node_responses.len() == RESPONSE_SETS {
-            self.node_responses.remove(0);
-        }
-        self.node_responses.push((h, responses.clone()));
-        responses
-    }
-
     /// The dense output of the last step at `t` (full order); `false`
     /// before a step.
     pub fn dense(&self, t: f64, out: &mut [f64]) -> bool {
@@ -676,8 +693,8 @@ impl<R: ModalRhs> Exponential<R> {
     /// The kept responses for `t` when it is a sample of the switch
     /// locator's grid over the last step `[t0, t0 + h]` (within a few
     /// ulps of `t0 + h k / SAMPLES`: the state there is taken at that
-    /// offset), computed at the first such query for the step size.
-    fn grid_responses(&self, t0: f64, h: f64, t: f64) -> Option<std::cell::Ref<'_, Responses>> {
+    /// offset).
+    fn grid_responses(&self, t0: f64, h: f64, t: f64) -> Option<Arc<Responses>> {
         let slack = 4.0 * f64::EPSILON * t.abs().max(t0.abs());
         let k = ((t - t0) / h * SAMPLES as f64).round();
         if !(k >= 1.0 && k < SAMPLES as f64) {
@@ -687,24 +704,7 @@ impl<R: ModalRhs> Exponential<R> {
         if (t - t0 - grid_offset(h, k)).abs() > slack {
             return None;
         }
-        let mut kept = self.grid_responses.borrow_mut();
-        let i = match kept.iter().position(|(size, _)| *size == h) {
-            Some(i) => i,
-            None => {
-                if kept.len() == RESPONSE_SETS {
-                    kept.remove(0);
-                }
-                kept.push((h, Default::default()));
-                kept.len() - 1
-            }
-        };
-        if kept[i].1[k - 1].is_none() {
-            let mut r = Responses::default();
-            r.compute(&self.modes, grid_offset(h, k), h);
-            kept[i].1[k - 1] = Some(r);
-        }
-        drop(kept);
-        Some(std::cell::Ref::map(self.grid_responses.borrow(), |kept| kept[i].1[k - 1].as_ref().expect("just computed")))
+        self.modes.grid_response(h, k)
     }
 
     /// A bound on `|d/dt (w . z)|` over the last step for a fixed row `w`

@@ -7,8 +7,10 @@
 //! - [`model`]: the scene in numbers (beam matrices, surface, hub drive);
 //! - [`system`]: one phase's equations as a first-order system (state
 //!   layout, force, analytic Jacobian);
-//! - [`stepper`]: the integrators, DOP853 (default) or Radau IIA
-//!   (`solver.method`);
+//! - [`stepper`]: the integrators, DOP853, the exponential integrator or
+//!   Radau IIA (`solver.method`);
+//! - [`frozen`]: the exponential integrator's frozen linear parts, on a
+//!   grid of hub speeds, kept per model;
 //! - [`events`]: the contact law's watched functions along a step, for
 //!   the shared switch locator ([`crate::solve::switch`]);
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
@@ -26,6 +28,7 @@
 mod kind;
 pub mod codec;
 pub mod events;
+pub mod frozen;
 // The flow map serves the orbits tool only: FMU binaries leave it out.
 #[cfg(feature = "tools")]
 pub mod flow;

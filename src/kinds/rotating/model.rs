@@ -5,6 +5,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
+use super::frozen::FrozenMemo;
 use super::spec::{HubDrive, OrderSpec, Profile, RotatingSpec};
 use crate::contact::Law;
 use crate::structure::rotating::{Order, Plane, RotatingBeam, RotatingBeamParams};
@@ -112,6 +113,8 @@ pub struct RotatingModel {
     /// `theta, B, theta', B'` at the start.
     pub initial_z: DVector<f64>,
     pub initial_zd: DVector<f64>,
+    /// The exponential integrator's frozen linear parts built so far.
+    pub frozen: FrozenMemo,
 }
 
 impl RotatingModel {
@@ -165,7 +168,7 @@ impl RotatingModel {
         initial_zd[0] = spec.initial.theta_dot;
         initial_z.rows_mut(1, n).copy_from(&b);
         initial_zd.rows_mut(1, n).copy_from(&bd);
-        Ok(RotatingModel { spec: spec.clone(), beam, surface, drive, m_minus_d, c_tip, s_geo, m_chol, initial_z, initial_zd })
+        Ok(RotatingModel { spec: spec.clone(), beam, surface, drive, m_minus_d, c_tip, s_geo, m_chol, initial_z, initial_zd, frozen: FrozenMemo::default() })
     }
 
     pub fn n_modes(&self) -> usize {

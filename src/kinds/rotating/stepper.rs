@@ -19,9 +19,10 @@ use serde::{Deserialize, Serialize};
 
 use super::system::Phase;
 use crate::contact::Contact;
-use crate::structure::rotating::{AccelerationScratch, FrozenPart, Hub, ModalEquations};
+use super::frozen::Frozen;
+use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations};
 use crate::solve::dop853::{Dop853, Rhs};
-use crate::solve::exponential::{Exponential, LinearModes, ModalRhs};
+use crate::solve::exponential::{Exponential, ModalRhs};
 use crate::solve::radau::{Radau, RadauOptions, Tol};
 
 /// Which integrator a rotating run uses (`solver.method`).
@@ -77,21 +78,10 @@ impl PhaseRhs {
         PhaseRhs { phase: phase.clone(), y: DVector::zeros(n), dy: DVector::zeros(n), scratch: AccelerationScratch::default(), modal: None }
     }
 
-    /// [`Self::new`] with the remainder in the coordinates of `modes`,
-    /// the linear part frozen at `(t0, y0)`.
-    fn with_modes(phase: &Phase, modes: &LinearModes, t0: f64, y0: &DVector<f64>) -> Self {
-        let mut rhs = Self::new(phase, y0.len());
-        let (theta, theta_dot) = phase.frozen_hub(t0, y0);
-        let frozen = FrozenPart {
-            phi: modes.phi(),
-            psi: modes.psi(),
-            omega2: modes.omega2(),
-            damping: modes.damping(),
-            theta_dot,
-            theta,
-            prescribed: phase.prescribed(),
-        };
-        rhs.modal = Some(phase.model.beam.modal_equations(frozen));
+    /// [`Self::new`] with the remainder in the coordinates of `frozen`.
+    fn with_frozen(phase: &Phase, n: usize, frozen: &Frozen) -> Self {
+        let mut rhs = Self::new(phase, n);
+        rhs.modal = Some(frozen.equations.clone());
         rhs
     }
 }
@@ -155,8 +145,8 @@ impl Stepper {
             Method::Auto | Method::Exponential => {
                 let n = y0.len();
                 let (rtol, atol) = dop853_tolerances(options, n);
-                let modes = phase.linear_modes(t0, y0)?;
-                let solver = Exponential::new(PhaseRhs::with_modes(phase, &modes, t0, y0), std::sync::Arc::new(modes), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
+                let frozen = phase.frozen(t0, y0)?;
+                let solver = Exponential::new(PhaseRhs::with_frozen(phase, n, &frozen), frozen.modes.clone(), t0, y0.as_slice(), rtol, &atol, options.h_init, options.h_max);
                 if !solver.y().iter().all(|x| x.is_finite()) {
                     return Err("the start state is not finite".into());
                 }

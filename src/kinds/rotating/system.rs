@@ -21,7 +21,6 @@ use nalgebra::{DMatrix, DVector};
 use super::model::RotatingModel;
 use crate::structure::rotating::{AccelerationScratch, ContactTerms, Plane};
 use crate::contact::Contact;
-use crate::solve::exponential::LinearModes;
 use crate::solve::radau::ImplicitSystem;
 
 /// The contact quantities at one state.
@@ -69,34 +68,6 @@ impl Phase {
 
     pub fn dim(&self) -> usize {
         self.extras() + 3
-    }
-
-    /// The linear part an exponential integrator propagates exactly, frozen
-    /// at `(t, y)`: the bending modes with the hub speed's centrifugal
-    /// stiffening and the gravity's axial load there, the hub (when
-    /// torque-driven) through the undeflected mass matrix; `J0 z'' + C z' +
-    /// K0 z`, everything else (the deflection's share of `J`, Coriolis
-    /// terms, the change of the hub speed, contact) in the remainder.
-    pub fn linear_modes(&self, t: f64, y: &DVector<f64>) -> Result<LinearModes, String> {
-        let n = self.n();
-        let beam = &self.model.beam;
-        let (theta, thd) = self.frozen_hub(t, y);
-        let sn = theta.sin();
-        let stiffness = &beam.k - &self.model.m_minus_d * (thd * thd) - &self.model.s_geo * (beam.params.gravity * sn);
-        match self.model.prescribed() {
-            Some(_) => LinearModes::new(&beam.m, &stiffness, &beam.damping),
-            None => {
-                let mass = beam.mass_matrix(&DVector::zeros(n + 1));
-                let border = |b: &DMatrix<f64>| DMatrix::from_fn(n + 1, n + 1, |i, j| if i == 0 || j == 0 { 0.0 } else { b[(i - 1, j - 1)] });
-                LinearModes::new(&mass, &border(&stiffness), &border(&beam.damping))
-            }
-        }
-    }
-
-    /// The hub's angle and speed [`Self::linear_modes`] freezes at `(t, y)`.
-    pub fn frozen_hub(&self, t: f64, y: &DVector<f64>) -> (f64, f64) {
-        let (z, zd) = self.coords(t, y);
-        (z[0], zd[0])
     }
 
     /// `(z, z')` at time `t` from `y`.

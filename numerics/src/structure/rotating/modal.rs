@@ -60,10 +60,10 @@ pub struct FrozenPart<'a> {
     /// Per mode `omega^2` and the damping `c`.
     pub omega2: &'a [f64],
     pub damping: &'a [f64],
-    /// The hub speed and angle `K0 = K - theta0'^2 (M - D) - g
-    /// sin(theta0) S` was frozen at.
-    pub theta_dot: f64,
-    pub theta: f64,
+    /// The hub speed squared and `sin(theta)` the frozen stiffness `K0 =
+    /// K - theta0'^2 (M - D) - g sin(theta0) S` has.
+    pub theta_dot_sq: f64,
+    pub sin_theta: f64,
     pub prescribed: bool,
 }
 
@@ -112,7 +112,7 @@ pub struct ModalEquations {
 impl RotatingBeam {
     /// The products of the frozen linear part `frozen`.
     pub fn modal_equations(&self, frozen: FrozenPart<'_>) -> ModalEquations {
-        let FrozenPart { phi, psi, omega2, damping: c, theta_dot, theta, prescribed } = frozen;
+        let FrozenPart { phi, psi, omega2, damping: c, theta_dot_sq: frozen_w2, sin_theta: frozen_sin, prescribed } = frozen;
         let n = self.n_modes();
         let m = if prescribed { n } else { n + 1 };
         assert!(
@@ -138,7 +138,6 @@ impl RotatingBeam {
         let u = if prescribed { -(&w * &self.gamma) } else { psi.column(0) - &psi_b * a };
         let gravity = (self.params.gravity != 0.0).then(|| (quad(&self.s_geo), proj(&self.s_geo), (&w * &self.sigma).as_slice().to_vec()));
         let (a_md, a_k, a_s) = (along_a(&self.m_minus_d), along_a(&self.k), along_a(&self.s_geo));
-        let (frozen_w2, frozen_sin) = (theta_dot * theta_dot, theta.sin());
         let schur_0 = self.params.hub_inertia + self.j_b - self.gamma_m_inv_gamma;
         let kappa = if prescribed {
             vec![0.0; m]
@@ -358,7 +357,7 @@ mod tests {
         let omega2: Vec<f64> = eig.eigenvalues.iter().map(|x| x.max(0.0)).collect();
         let cq = phi.transpose() * &cb * &phi;
         let c: Vec<f64> = (0..m).map(|k| if omega2[k] > 0.0 { cq[(k, k)].max(0.0) } else { 0.0 }).collect();
-        let frozen = FrozenPart { phi: &phi, psi: &psi, omega2: &omega2, damping: &c, theta_dot: frozen_theta_dot, theta: frozen_theta, prescribed };
+        let frozen = FrozenPart { phi: &phi, psi: &psi, omega2: &omega2, damping: &c, theta_dot_sq: frozen_theta_dot * frozen_theta_dot, sin_theta: f64::sin(frozen_theta), prescribed };
         let mut eq = beam.modal_equations(frozen);
         let plane = Plane::new([0.3, -1.0], [1.1, 0.0]).unwrap();
         let mut seed = 12345u64;
