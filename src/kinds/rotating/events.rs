@@ -143,6 +143,17 @@ impl<'a> StepCurve<'a> {
 
     fn gap_rate_uncached(&self, t: f64) -> f64 {
         let Some(s) = &self.phase.model.surface else { return 0.0 };
+        if self.solver.velocity_is_rate() {
+            // The dense output's velocities are its coordinates' rates.
+            let y = &mut self.buffers.borrow_mut().0;
+            self.y_into(t, y);
+            if !self.phase.prescribed() {
+                let m = self.phase.n() + 1;
+                return -self.phase.model.beam.plane_penetration(&y.as_slice()[..m], &y.as_slice()[m..2 * m], &s.plane).1;
+            }
+            let (z, zd) = self.phase.coords(t, y);
+            return self.phase.model.beam.contact_generalized_force(&z, &s.plane, 1.0).dot(&zd);
+        }
         if !self.phase.prescribed() {
             // The penetration's rate is linear in z': along `u`, with `u'`
             // in its place, it is the rate of the penetration of `u`.

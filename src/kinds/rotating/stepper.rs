@@ -220,6 +220,14 @@ impl Stepper {
         }
     }
 
+    /// Whether the dense output's velocities are the exact rates of its
+    /// coordinates (the exponential integrator's: each mode's response is
+    /// exact under the step's polynomial), so that a rate of the
+    /// coordinates needs no [`Self::dense_derivative`].
+    pub fn velocity_is_rate(&self) -> bool {
+        matches!(self, Stepper::Exponential(_))
+    }
+
     /// Its time derivative; `false` before a step.
     pub fn dense_derivative(&self, t: f64, out: &mut DVector<f64>) -> bool {
         match self {
