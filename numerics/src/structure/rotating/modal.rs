@@ -17,8 +17,16 @@
 //! and every term of `Q_B` and of the hub's equation is linear or
 //! quadratic in `p` and `p'` through products fixed with the frozen part:
 //! `b.(M - D) b = p.(G p)` and `b'.(M - D) b = p'.(G p)` with `G =
-//! Phi_B^T (M - D) Phi_B`; `W (M - D) b = H p`; likewise the damping,
-//! gravity's `S` and the tip's shortening `C_L`.
+//! Phi_B^T (M - D) Phi_B`; likewise the damping, gravity's `S` and the
+//! tip's shortening `C_L`. Since `Phi^T J0 Phi = I`, `Psi = Phi^T J0`:
+//! `Psi_B = Phi_0^T Gamma^T + Phi_B^T M` (`Psi_B = Phi^T M` for a
+//! prescribed hub), so `W = Phi_B^T + Phi_0^T a^T` and
+//!
+//! `W X b = Phi_B^T X Phi_B p + Phi_0^T (a . X b)` for `X = M - D, S,
+//! C_L`:
+//!
+//! `H p = W (M - D) b = G p + Phi_0^T (a . (M - D) b)`, the hub's
+//! `a . X b` being terms its equation needs anyway.
 //!
 //! The frozen part's own terms cancel in closed form. It was frozen at a
 //! hub speed `theta0'` and angle `theta0`: `K0 = K - theta0'^2 (M - D) -
@@ -33,9 +41,11 @@
 //!
 //! what the linear part leaves out and nothing it holds. `L`'s entries
 //! are about 1e-16 of the largest `omega^2`, so only the slow modes' rows
-//! matter beside its diagonal. Per evaluation that is two `(N + 1)^2`
-//! products in free flight (`G p`, `H p`) and a few rows, instead of six (`Phi p`, `Phi p'`, `(M - D) b`, `K b`, `M^-1 Q_B`,
-//! `Psi z''`); damping, gravity and a pressed contact add theirs.
+//! matter beside its diagonal. Per evaluation that is one `(N + 1)^2`
+//! product in free flight (`G p`) and a few rows of `L`, instead of six
+//! (`Phi p`, `Phi p'`, `(M - D) b`, `K b`, `M^-1 Q_B`, `Psi z''`); a
+//! pressed contact adds one (`Phi_B^T C_L Phi_B p`), gravity one and
+//! damping one.
 
 use nalgebra::DMatrix;
 
@@ -78,9 +88,8 @@ pub struct ModalEquations {
     phi_hub: Vec<f64>,
     phi_w: Vec<f64>,
     phi_sigma: Vec<f64>,
-    /// `G`, `H` (module doc).
+    /// `G` (module doc).
     g_md: DMatrix<f64>,
-    h_md: DMatrix<f64>,
     /// The frozen part: `theta0'^2`, `sin theta0`, `kappa`; `L` (module
     /// doc): the slow modes' rows, every mode's diagonal.
     frozen_w2: f64,
@@ -100,10 +109,11 @@ pub struct ModalEquations {
     a_l: Vec<f64>,
     a_sigma: f64,
     a_w: f64,
-    /// Gravity: `Phi_B^T S Phi_B`, `W S Phi_B`, `W sigma`.
-    gravity: Option<(DMatrix<f64>, DMatrix<f64>, Vec<f64>)>,
-    /// The tip: `Phi_B^T C_L Phi_B`, `W C_L Phi_B`, `W w`.
-    tip: (DMatrix<f64>, DMatrix<f64>, Vec<f64>),
+    /// Gravity: `Phi_B^T S Phi_B`, `W sigma`.
+    gravity: Option<(DMatrix<f64>, Vec<f64>)>,
+    /// The tip: `Phi_B^T C_L Phi_B`; `W w`.
+    tip: DMatrix<f64>,
+    tip_w: Vec<f64>,
     /// `J_h + J_b - Gamma . M^-1 Gamma`: the hub's Schur complement at `B = 0`.
     schur_0: f64,
     scratch: [Vec<f64>; 5],
@@ -136,7 +146,7 @@ impl RotatingBeam {
         }
         let e_c = e_c.or_else(|| c.iter().any(|x| *x != 0.0).then(|| DMatrix::from_diagonal(&nalgebra::DVector::from_column_slice(c))));
         let u = if prescribed { -(&w * &self.gamma) } else { psi.column(0) - &psi_b * a };
-        let gravity = (self.params.gravity != 0.0).then(|| (quad(&self.s_geo), proj(&self.s_geo), (&w * &self.sigma).as_slice().to_vec()));
+        let gravity = (self.params.gravity != 0.0).then(|| (quad(&self.s_geo), (&w * &self.sigma).as_slice().to_vec()));
         let (a_md, a_k, a_s) = (along_a(&self.m_minus_d), along_a(&self.k), along_a(&self.s_geo));
         let schur_0 = self.params.hub_inertia + self.j_b - self.gamma_m_inv_gamma;
         let kappa = if prescribed {
@@ -163,7 +173,6 @@ impl RotatingBeam {
             phi_w: (&pt * &self.w).as_slice().to_vec(),
             phi_sigma: (&pt * &self.sigma).as_slice().to_vec(),
             g_md: quad(&self.m_minus_d),
-            h_md: proj(&self.m_minus_d),
             frozen_w2,
             frozen_sin,
             kappa,
@@ -179,7 +188,8 @@ impl RotatingBeam {
             a_sigma: a.dot(&self.sigma),
             a_w: a.dot(&self.w),
             gravity,
-            tip: (quad(&self.c_tip), proj(&self.c_tip), (&w * &self.w).as_slice().to_vec()),
+            tip: quad(&self.c_tip),
+            tip_w: (&w * &self.w).as_slice().to_vec(),
             schur_0,
             scratch: Default::default(),
         }
@@ -224,24 +234,25 @@ impl ModalEquations {
         let grav = beam.params.gravity;
         let (sn, cs) = if grav != 0.0 || contact.is_some() { theta.sin_cos() } else { (0.0, 1.0) };
         let free_hub = !self.prescribed;
-        if free_hub {
-            mat_vec(self.g_md.as_slice(), p, gp);
-        }
+        mat_vec(self.g_md.as_slice(), p, gp);
+        let a_md_p = dot(&self.a_md, p);
         // Hub: q0 - a . Q_B over the Schur complement (a torque-driven hub).
         let mut q0 = torque - 2.0 * thd * dot(gp, pd);
-        let mut a_qb = thd * thd * dot(&self.a_md, p) - dot(&self.a_k, p);
+        let mut a_qb = thd * thd * a_md_p - dot(&self.a_k, p);
         if self.e_c.is_some() {
             a_qb -= dot(&self.a_c, pd);
         }
-        if let (Some((gs, _, _)), true) = (&self.gravity, free_hub) {
+        let mut a_s_p = 0.0;
+        if let Some((gs, _)) = &self.gravity {
             mat_vec(gs.as_slice(), p, sp);
+            a_s_p = dot(&self.a_s, p);
             q0 -= grav * (beam.s_1 * cs - sn * dot(&self.phi_sigma, p) - 0.5 * cs * dot(p, sp));
-            a_qb += grav * sn * dot(&self.a_s, p) - grav * cs * self.a_sigma;
+            a_qb += grav * sn * a_s_p - grav * cs * self.a_sigma;
         }
         let mut terms = ContactTerms::default();
         let mut pushing = None;
         if let Some((plane, force)) = contact {
-            mat_vec(self.tip.0.as_slice(), p, lp);
+            mat_vec(self.tip.as_slice(), p, lp);
             let tip = TipFrame {
                 x: beam.params.hub_radius + beam.params.length - 0.5 * dot(p, lp),
                 y: dot(&self.phi_w, p),
@@ -258,8 +269,9 @@ impl ModalEquations {
                 let (lx, ly) = (cs * nx + sn * ny, -sn * nx + cs * ny);
                 terms.hub_force = f * (-tip.y * lx + tip.x * ly);
                 q0 += terms.hub_force;
-                a_qb += f * (-lx * dot(&self.a_l, p) + ly * self.a_w);
-                pushing = Some((f, lx, ly));
+                let a_l_p = dot(&self.a_l, p);
+                a_qb += f * (-lx * a_l_p + ly * self.a_w);
+                pushing = Some((f, lx, ly, a_l_p));
             }
         }
         let thdd = match hub {
@@ -273,8 +285,12 @@ impl ModalEquations {
             }
         };
         // The modes (module doc): u (theta'' - kappa.p) + (theta'^2 -
-        // theta0'^2) H p (+ E_c p', gravity, contact).
-        mat_vec(self.h_md.as_slice(), p, hp);
+        // theta0'^2) H p (+ E_c p', gravity, contact), with `W X Phi_B p
+        // = Phi_B^T X Phi_B p + Phi_0 (a . X b)` (`Psi = Phi^T J0`).
+        let hub_row = |k: usize| if free_hub { self.phi_hub[k] } else { 0.0 };
+        for k in 0..m {
+            hp[k] = gp[k] + hub_row(k) * a_md_p;
+        }
         let hub = thdd - dot(&self.kappa, p);
         let dw2 = thd * thd - self.frozen_w2;
         let slow = self.left_slow.nrows();
@@ -291,16 +307,16 @@ impl ModalEquations {
                 g[k] += tmp[k];
             }
         }
-        if let Some((_, hs, w_sigma)) = &self.gravity {
-            mat_vec(hs.as_slice(), p, tmp);
+        if let Some((_, w_sigma)) = &self.gravity {
             for k in 0..m {
-                g[k] += grav * ((sn - self.frozen_sin) * tmp[k] - cs * w_sigma[k]);
+                let ws_b = sp[k] + hub_row(k) * a_s_p;
+                g[k] += grav * ((sn - self.frozen_sin) * ws_b - cs * w_sigma[k]);
             }
         }
-        if let Some((f, lx, ly)) = pushing {
-            mat_vec(self.tip.1.as_slice(), p, tmp);
+        if let Some((f, lx, ly, a_l_p)) = pushing {
             for k in 0..m {
-                g[k] += f * (-lx * tmp[k] + ly * self.tip.2[k]);
+                let wl_b = lp[k] + hub_row(k) * a_l_p;
+                g[k] += f * (-lx * wl_b + ly * self.tip_w[k]);
             }
         }
         Ok(terms)
