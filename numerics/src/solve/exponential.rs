@@ -501,6 +501,13 @@ impl<R: ModalRhs> Exponential<R> {
         }
     }
 
+    /// [`Self::norm`] of `a - b` against `a`.
+    fn norm_of_difference(&self, a: &[f64], b: &[f64]) -> f64 {
+        let n = a.len();
+        let sum: f64 = (0..n).map(|i| ((a[i] - b[i]) / (self.atol[i] + self.rtol * a[i].abs())).powi(2)).sum();
+        (sum / n as f64).sqrt()
+    }
+
     /// The weighted RMS of `x` (an error in `q`) against `q`'s scale.
     fn norm(&self, x: &[f64], reference: &[f64]) -> f64 {
         let n = x.len();
@@ -520,7 +527,6 @@ impl<R: ModalRhs> Exponential<R> {
         let mut values: Vec<Vec<f64>> = vec![self.g.clone(); NODES];
         let mut poly = Polynomial { coefficients: vec![[0.0; NODES]; ncomp] };
         let mut states: Vec<Vec<f64>> = vec![vec![0.0; n]; NODES];
-        let mut gj = vec![0.0; ncomp];
         // A rejected attempt's size and polynomial.
         let mut attempt: Option<(f64, Polynomial)> = None;
         loop {
@@ -556,12 +562,10 @@ impl<R: ModalRhs> Exponential<R> {
             let expected = self.contraction.filter(|_| self.steps_since_measured < Contraction::CHECK_EVERY).map(|c| c.at(h)).filter(|r| *r < 0.5);
             for _sweep in 0..MAX_SWEEPS {
                 self.fit(&values, &mut poly);
-                for j in 1..NODES {
-                    Self::state_at(&modes, &q0, &poly, &responses[j], h, &mut states[j]);
-                }
+                // The end first: the other nodes only for another sweep.
+                Self::state_at(&modes, &q0, &poly, &responses[NODES - 1], h, &mut states[NODES - 1]);
                 let end = &states[NODES - 1];
-                let change: Vec<f64> = (0..n).map(|i| end[i] - previous_end[i]).collect();
-                let moved = self.norm(&change, end);
+                let moved = self.norm_of_difference(end, &previous_end);
                 if moved.is_finite() && moved < 0.01 {
                     if previous_move.is_finite() && previous_move > 0.0 {
                         self.contraction = Some(Contraction { ratio: moved / previous_move, h });
@@ -580,11 +584,11 @@ impl<R: ModalRhs> Exponential<R> {
                     break;
                 }
                 previous_end.copy_from_slice(end);
+                for j in 1..NODES - 1 {
+                    Self::state_at(&modes, &q0, &poly, &responses[j], h, &mut states[j]);
+                }
                 for j in 1..NODES {
-                    let t = t0 + nodes_c[j] * h;
-                    let s = states[j].clone();
-                    self.remainder(t, &s, &mut gj);
-                    values[j].copy_from_slice(&gj);
+                    self.remainder(t0 + nodes_c[j] * h, &states[j], &mut values[j]);
                 }
             }
             // The error: what the top term adds at the end.
