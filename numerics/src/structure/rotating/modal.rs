@@ -200,6 +200,39 @@ impl RotatingBeam {
 /// diagonal exceeds this share of the row's `omega^2`.
 const LEFT_RELATIVE: f64 = 1e-14;
 
+/// The remainder's dot products: `Phi_0 . p`, `Phi_0 . p'` (0 for a
+/// prescribed hub), `a_md . p`, `a_k . p`, `kappa . p`, `p . G p`, `p' .
+/// G p`.
+struct Sums {
+    hub: f64,
+    hub_rate: f64,
+    a_md: f64,
+    a_k: f64,
+    kappa: f64,
+    p_gp: f64,
+    pd_gp: f64,
+}
+
+impl Sums {
+    /// Seven running sums in one pass, each in the order of `k` (the
+    /// bits of seven calls of [`dot`]; the independent sums overlap).
+    fn of(phi_hub: Option<&[f64]>, a_md: &[f64], a_k: &[f64], kappa: &[f64], p: &[f64], pd: &[f64], gp: &[f64]) -> Self {
+        let mut s = Sums { hub: 0.0, hub_rate: 0.0, a_md: 0.0, a_k: 0.0, kappa: 0.0, p_gp: 0.0, pd_gp: 0.0 };
+        for k in 0..p.len() {
+            if let Some(row) = phi_hub {
+                s.hub += row[k] * p[k];
+                s.hub_rate += row[k] * pd[k];
+            }
+            s.a_md += a_md[k] * p[k];
+            s.a_k += a_k[k] * p[k];
+            s.kappa += kappa[k] * p[k];
+            s.p_gp += p[k] * gp[k];
+            s.pd_gp += gp[k] * pd[k];
+        }
+        s
+    }
+}
+
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -222,23 +255,26 @@ impl ModalEquations {
     ) -> Result<ContactTerms, String> {
         let m = self.m;
         assert!(p.len() == m && pd.len() == m && g.len() == m, "modal remainder: {m} coordinates");
-        let (theta, thd, torque) = match hub {
-            Hub::Torque(torque) if !self.prescribed => (dot(&self.phi_hub, p), dot(&self.phi_hub, pd), torque),
-            Hub::Prescribed { theta, theta_dot, .. } if self.prescribed => (theta, theta_dot, 0.0),
-            _ => panic!("modal remainder: the hub's motion is not of the kind the products were made for"),
-        };
         for v in self.scratch.iter_mut() {
             v.resize(m, 0.0);
         }
         let [gp, hp, lp, sp, tmp] = &mut self.scratch;
-        let grav = beam.params.gravity;
-        let (sn, cs) = if grav != 0.0 || contact.is_some() { theta.sin_cos() } else { (0.0, 1.0) };
         let free_hub = !self.prescribed;
         mat_vec(self.g_md.as_slice(), p, gp);
-        let a_md_p = dot(&self.a_md, p);
+        // The dot products of `p`, `p'` and `G p`, in one pass (each summed
+        // in order, as `dot` sums).
+        let sums = Sums::of(free_hub.then_some(&self.phi_hub[..]), &self.a_md, &self.a_k, &self.kappa, p, pd, gp);
+        let (theta, thd, torque) = match hub {
+            Hub::Torque(torque) if free_hub => (sums.hub, sums.hub_rate, torque),
+            Hub::Prescribed { theta, theta_dot, .. } if !free_hub => (theta, theta_dot, 0.0),
+            _ => panic!("modal remainder: the hub's motion is not of the kind the products were made for"),
+        };
+        let grav = beam.params.gravity;
+        let (sn, cs) = if grav != 0.0 || contact.is_some() { theta.sin_cos() } else { (0.0, 1.0) };
+        let a_md_p = sums.a_md;
         // Hub: q0 - a . Q_B over the Schur complement (a torque-driven hub).
-        let mut q0 = torque - 2.0 * thd * dot(gp, pd);
-        let mut a_qb = thd * thd * a_md_p - dot(&self.a_k, p);
+        let mut q0 = torque - 2.0 * thd * sums.pd_gp;
+        let mut a_qb = thd * thd * a_md_p - sums.a_k;
         if self.e_c.is_some() {
             a_qb -= dot(&self.a_c, pd);
         }
@@ -277,7 +313,7 @@ impl ModalEquations {
         let thdd = match hub {
             Hub::Prescribed { theta_ddot, .. } => theta_ddot,
             Hub::Torque(_) => {
-                let schur = self.schur_0 + dot(p, gp);
+                let schur = self.schur_0 + sums.p_gp;
                 if !(schur > 0.0) {
                     return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
                 }
@@ -291,7 +327,7 @@ impl ModalEquations {
         for k in 0..m {
             hp[k] = gp[k] + hub_row(k) * a_md_p;
         }
-        let hub = thdd - dot(&self.kappa, p);
+        let hub = thdd - sums.kappa;
         let dw2 = thd * thd - self.frozen_w2;
         let slow = self.left_slow.nrows();
         mat_vec(self.left_slow.as_slice(), p, &mut g[..slow]);
