@@ -1,9 +1,9 @@
 //! The rotating beam's integrators behind one interface: the exponential
 //! integrator ([`crate::solve::exponential`]: the bending modes' linear
 //! response at the phase's start, with its hub speed's stiffening,
-//! propagated exactly, the remainder collocated; `auto` from 16 modes
+//! propagated exactly, the remainder collocated; `auto` from 10 modes
 //! on), DOP853 ([`crate::solve::dop853`], explicit, order 8 with a
-//! 7th-order dense output; `auto` below 16 modes) and Radau IIA
+//! 7th-order dense output; `auto` below 10 modes) and Radau IIA
 //! ([`crate::solve::radau`], L-stable, order 5).
 //!
 //! All three take the phase's tolerances ([`RadauOptions`]: rtol, atol per
@@ -44,11 +44,11 @@ pub enum Method {
 
 /// From this many modes on, `auto` integrates exponentially: below, the
 /// highest mode is not stiff enough for the exact linear part to pay for
-/// its dense output's cost (docs/performance.md, at an error of 1e-8:
-/// DWZ at 6 modes, DOP853 about 2 times faster; at 12 1.1 times; at 16
-/// even; at 24 the exponential integrator 1.8 times faster, at 32 and 64
-/// more).
-pub const EXPONENTIAL_FROM_MODES: usize = 16;
+/// its dense output's cost (scripts/rotating-scaling, DWZ at tolerance
+/// 1e-8: at 6 modes DOP853 1.1 times faster, at 8 1.04 times; at 10 the
+/// exponential integrator 1.14 times faster, at 12 1.3 times, at 32 4.6
+/// times).
+pub const EXPONENTIAL_FROM_MODES: usize = 10;
 
 impl Method {
     /// The integrator `self` means for `n_modes` modes.
