@@ -354,13 +354,13 @@ pub struct Exponential<R: Rhs> {
     scratch_f: Vec<f64>,
 }
 
-/// A dense query's time, modal and physical states, and the physical
+/// A dense query's time and modal state, and the physical state and its
 /// derivative once asked for.
 #[derive(Clone, Debug)]
 struct DensePoint {
     t: f64,
     q: Vec<f64>,
-    y: Vec<f64>,
+    y: Option<Vec<f64>>,
     dy: Option<Vec<f64>>,
 }
 
@@ -638,8 +638,21 @@ impl<R: ModalRhs> Exponential<R> {
     /// before a step.
     pub fn dense(&self, t: f64, out: &mut [f64]) -> bool {
         let Some(mut cache) = self.dense_point(t) else { return false };
-        out.copy_from_slice(&cache.as_mut().expect("a dense point").y);
+        let point = cache.as_mut().expect("a dense point");
+        if point.y.is_none() {
+            let mut y = vec![0.0; point.q.len()];
+            self.modes.to_physical(&point.q, &mut y);
+            point.y = Some(y);
+        }
+        out.copy_from_slice(point.y.as_ref().expect("just made"));
         true
+    }
+
+    /// `f` of the dense output's modal state `q = [p; p'; r]` at `t`
+    /// (no mapping to physical coordinates); `None` before a step.
+    pub fn with_dense_modal<T>(&self, t: f64, f: impl FnOnce(&[f64]) -> T) -> Option<T> {
+        let cache = self.dense_point(t)?;
+        Some(f(&cache.as_ref().expect("a dense point").q))
     }
 
     /// Its time derivative: `L q + [0; g(tau); s(tau)]`.
@@ -688,9 +701,7 @@ impl<R: ModalRhs> Exponential<R> {
                 Self::state_at(modes, q0, poly, &r, *h, &mut q);
             }
         }
-        let mut y = vec![0.0; n];
-        modes.to_physical(&q, &mut y);
-        *cache = Some(DensePoint { t, q, y, dy: None });
+        *cache = Some(DensePoint { t, q, y: None, dy: None });
         Some(cache)
     }
 

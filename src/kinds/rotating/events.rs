@@ -24,8 +24,9 @@ pub struct StepCurve<'a> {
     pub t0: f64,
     pub t1: f64,
     pub y0: &'a DVector<f64>,
-    /// Room for `u(t)` and `u'(t)` (the samples' states).
-    buffers: RefCell<(DVector<f64>, DVector<f64>)>,
+    /// Room for `u(t)` and `u'(t)` (the samples' states), and for the
+    /// modal route's product ([`Stepper::dense_penetration`]).
+    buffers: RefCell<(DVector<f64>, DVector<f64>, Vec<f64>)>,
     /// The last few contact points and gap rates, by time: the locator
     /// asks for a sample's value and rate again as the next bracket's
     /// start.
@@ -70,7 +71,7 @@ impl<'a> StepCurve<'a> {
             t0,
             t1,
             y0,
-            buffers: RefCell::new((DVector::zeros(dim), DVector::zeros(dim))),
+            buffers: RefCell::new((DVector::zeros(dim), DVector::zeros(dim), Vec::new())),
             points: RefCell::new(Recent::new()),
             rates: RefCell::new(Recent::new()),
         }
@@ -109,6 +110,9 @@ impl<'a> StepCurve<'a> {
     }
 
     fn point_uncached(&self, t: f64) -> ContactPoint {
+        if let Some((penetration, rate)) = self.inside_penetration(t) {
+            return self.phase.contact_point_from(penetration, rate);
+        }
         if self.phase.prescribed() {
             let y = self.y(t);
             let (z, zd) = self.phase.coords(t, &y);
@@ -141,8 +145,21 @@ impl<'a> StepCurve<'a> {
         self.rates.borrow_mut().put(t, r)
     }
 
+    /// The penetration and its rate strictly inside the step from the
+    /// exponential integrator's modal state (its ends: from the states
+    /// the next step starts from, [`Self::y`]).
+    fn inside_penetration(&self, t: f64) -> Option<(f64, f64)> {
+        if !(t > self.t0 && t < self.t1) {
+            return None;
+        }
+        self.solver.dense_penetration(self.phase, t, &mut self.buffers.borrow_mut().2)
+    }
+
     fn gap_rate_uncached(&self, t: f64) -> f64 {
         let Some(s) = &self.phase.model.surface else { return 0.0 };
+        if let Some((_, rate)) = self.inside_penetration(t) {
+            return -rate;
+        }
         if self.solver.velocity_is_rate() {
             // The dense output's velocities are its coordinates' rates.
             let y = &mut self.buffers.borrow_mut().0;
@@ -157,7 +174,7 @@ impl<'a> StepCurve<'a> {
         if !self.phase.prescribed() {
             // The penetration's rate is linear in z': along `u`, with `u'`
             // in its place, it is the rate of the penetration of `u`.
-            let (y, dy) = &mut *self.buffers.borrow_mut();
+            let (y, dy, _) = &mut *self.buffers.borrow_mut();
             self.y_into(t, y);
             if !self.solver.dense_derivative(t, dy) {
                 return 0.0;

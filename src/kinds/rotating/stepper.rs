@@ -97,18 +97,23 @@ impl ModalRhs for PhaseRhs {
     }
 }
 
-/// The remainder of a phase in modal coordinates `q = [p; p'; P, E, H]`:
-/// the modes' `g`, then the running totals' rates as
-/// [`Phase::fill_rhs`] gives them.
-fn modal_rates(phase: &Phase, modal: &mut ModalEquations, t: f64, q: &[f64], g: &mut [f64]) -> Result<(), String> {
-    let m = phase.extras() / 2;
-    let hub = match phase.model.prescribed() {
+/// The hub's motion in `phase` at `t`.
+fn hub_at(phase: &Phase, t: f64) -> Hub {
+    match phase.model.prescribed() {
         Some(profile) => {
             let (theta, theta_dot, theta_ddot) = profile.at(t);
             Hub::Prescribed { theta, theta_dot, theta_ddot }
         }
         None => Hub::Torque(phase.torque),
-    };
+    }
+}
+
+/// The remainder of a phase in modal coordinates `q = [p; p'; P, E, H]`:
+/// the modes' `g`, then the running totals' rates as
+/// [`Phase::fill_rhs`] gives them.
+fn modal_rates(phase: &Phase, modal: &mut ModalEquations, t: f64, q: &[f64], g: &mut [f64]) -> Result<(), String> {
+    let m = phase.extras() / 2;
+    let hub = hub_at(phase, t);
     let terms = phase.with_pushing_law(|contact| modal.remainder(&phase.model.beam, &q[..m], &q[m..2 * m], hub, contact, &mut g[..m]))?;
     phase.totals_rates(&terms, &mut g[m..m + 3]);
     Ok(())
@@ -218,6 +223,19 @@ impl Stepper {
             Stepper::Dop853(s) => s.dense_at(t, out.as_mut_slice()),
             Stepper::Radau(s) => s.dense(t, out).is_ok(),
         }
+    }
+
+    /// The penetration of the phase's surface and its rate on the dense
+    /// output at `t` inside the last step, from the exponential
+    /// integrator's modal state (`lp`: room for its products); `None` for
+    /// the other integrators, before a step, or without a surface.
+    pub fn dense_penetration(&self, phase: &Phase, t: f64, lp: &mut Vec<f64>) -> Option<(f64, f64)> {
+        let Stepper::Exponential(s) = self else { return None };
+        let modal = s.inner.modal.as_ref()?;
+        let surface = phase.model.surface.as_ref()?;
+        let hub = hub_at(phase, t);
+        let m = phase.extras() / 2;
+        s.with_dense_modal(t, |q| modal.penetration(&phase.model.beam, &q[..m], &q[m..2 * m], hub, &surface.plane, lp))
     }
 
     /// Whether the dense output's velocities are the exact rates of its

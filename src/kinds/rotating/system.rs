@@ -111,6 +111,12 @@ impl Phase {
     pub fn contact_point_at(&self, z: &[f64], zd: &[f64]) -> ContactPoint {
         let Some(s) = &self.model.surface else { return ContactPoint::default() };
         let (gamma, rate) = self.model.beam.plane_penetration(z, zd, &s.plane);
+        self.contact_point_from(gamma, rate)
+    }
+
+    /// The contact quantities at penetration `gamma` and rate `rate`.
+    pub fn contact_point_from(&self, gamma: f64, rate: f64) -> ContactPoint {
+        let Some(s) = &self.model.surface else { return ContactPoint::default() };
         let mut c = ContactPoint { penetration: gamma, rate, ..Default::default() };
         if gamma > 0.0 {
             let (f, dp, dpd) = s.law.raw_force(gamma, rate, self.onset_speed);

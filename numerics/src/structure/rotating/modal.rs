@@ -238,6 +238,34 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl ModalEquations {
+    /// The tip in the hub's frame at `(p, p')`, `lp` given room for
+    /// `Phi_B^T C_L Phi_B p`.
+    fn tip_frame((tip, phi_w): (&DMatrix<f64>, &[f64]), beam: &RotatingBeam, p: &[f64], pd: &[f64], sn: f64, cs: f64, lp: &mut [f64]) -> TipFrame {
+        mat_vec(tip.as_slice(), p, lp);
+        TipFrame {
+            x: beam.params.hub_radius + beam.params.length - 0.5 * dot(p, lp),
+            y: dot(phi_w, p),
+            xd: -dot(lp, pd),
+            yd: dot(phi_w, pd),
+            sn,
+            cs,
+        }
+    }
+
+    /// The penetration of `plane` (`-gap`) and its rate at the modal state
+    /// `(p, p')` for the hub's motion `hub`, as
+    /// [`RotatingBeam::plane_penetration`] gives them at `z = Phi p`
+    /// (one product instead of three); `lp` is room for `m` values.
+    pub fn penetration(&self, beam: &RotatingBeam, p: &[f64], pd: &[f64], hub: Hub, plane: &Plane, lp: &mut Vec<f64>) -> (f64, f64) {
+        let (theta, thd) = match hub {
+            Hub::Torque(_) => (dot(&self.phi_hub, p), dot(&self.phi_hub, pd)),
+            Hub::Prescribed { theta, theta_dot, .. } => (theta, theta_dot),
+        };
+        let (sn, cs) = theta.sin_cos();
+        lp.resize(self.m, 0.0);
+        Self::tip_frame((&self.tip, &self.phi_w), beam, p, pd, sn, cs, lp).penetration(thd, plane)
+    }
+
     /// `g = Psi z'' + Omega^2 p + c p'` at `(p, p')` for the hub's
     /// motion `hub` (of the kind the products were made for), with the
     /// normal force on the tip along `plane` (`force(penetration, rate)`,
@@ -288,15 +316,7 @@ impl ModalEquations {
         let mut terms = ContactTerms::default();
         let mut pushing = None;
         if let Some((plane, force)) = contact {
-            mat_vec(self.tip.as_slice(), p, lp);
-            let tip = TipFrame {
-                x: beam.params.hub_radius + beam.params.length - 0.5 * dot(p, lp),
-                y: dot(&self.phi_w, p),
-                xd: -dot(lp, pd),
-                yd: dot(&self.phi_w, pd),
-                sn,
-                cs,
-            };
+            let tip = Self::tip_frame((&self.tip, &self.phi_w), beam, p, pd, sn, cs, lp);
             (terms.penetration, terms.rate) = tip.penetration(thd, plane);
             terms.force = force(terms.penetration, terms.rate);
             if terms.force != 0.0 {
@@ -462,6 +482,12 @@ mod tests {
             }
             for (x, y) in [(t1.penetration, t2.penetration), (t1.rate, t2.rate), (t1.force, t2.force), (t1.hub_force, t2.hub_force)] {
                 assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{case}: contact terms {t1:?} against {t2:?}");
+            }
+            // The penetration alone (the switch locator's), pressed or not.
+            let physical = beam.plane_penetration(zp.as_slice(), zdp.as_slice(), &plane);
+            let modal = eq.penetration(&beam, p.as_slice(), pd.as_slice(), motion, &plane, &mut Vec::new());
+            for (x, y) in [(physical.0, modal.0), (physical.1, modal.1)] {
+                assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{case}: penetration {physical:?} against {modal:?}");
             }
         }
     }
