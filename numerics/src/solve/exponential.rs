@@ -59,6 +59,9 @@ impl<F: FnMut(f64, &[f64], &mut [f64])> ModalRhs for F {}
 /// The remainder's polynomial degree per step.
 pub const DEGREE: usize = 6;
 const NODES: usize = DEGREE + 1;
+/// Dense queries within this share of the step from one of its ends
+/// move the end's state by its rate.
+const NEAR_END: f64 = 2e-8;
 /// Sweeps per attempt before the step is halved.
 const MAX_SWEEPS: usize = 12;
 /// Step sizes whose responses are kept (per [`LinearModes`]).
@@ -662,24 +665,29 @@ impl<R: ModalRhs> Exponential<R> {
         let point = cache.as_mut().expect("a dense point");
         if point.dy.is_none() {
             let modes = &self.modes;
-            let (m, n) = (modes.len(), point.q.len());
-            let sigma = (t - t0) / h;
-            let value = |c: &[f64; NODES]| c.iter().rev().fold(0.0, |acc, ci| acc * sigma + ci);
-            let q = &point.q;
+            let n = point.q.len();
             let mut dq = vec![0.0; n];
-            for k in 0..m {
-                dq[k] = q[m + k];
-                dq[m + k] = value(&poly.coefficients[k]) - modes.omega2[k] * q[k] - modes.damping[k] * q[m + k];
-            }
-            for e in 0..(n - 2 * m) {
-                dq[2 * m + e] = value(&poly.coefficients[m + e]);
-            }
+            Self::modal_rate(modes, &point.q, poly, (t - t0) / h, &mut dq);
             let mut dy = vec![0.0; n];
             modes.to_physical(&dq, &mut dy);
             point.dy = Some(dy);
         }
         out.copy_from_slice(point.dy.as_ref().expect("just made"));
         true
+    }
+
+    /// The rate of the modal state `q` at `sigma = tau / h` in a step
+    /// with polynomial `poly`: `L q + [0; g(tau); s(tau)]`.
+    fn modal_rate(modes: &LinearModes, q: &[f64], poly: &Polynomial, sigma: f64, dq: &mut [f64]) {
+        let (m, n) = (modes.len(), q.len());
+        let value = |c: &[f64; NODES]| c.iter().rev().fold(0.0, |acc, ci| acc * sigma + ci);
+        for k in 0..m {
+            dq[k] = q[m + k];
+            dq[m + k] = value(&poly.coefficients[k]) - modes.omega2[k] * q[k] - modes.damping[k] * q[m + k];
+        }
+        for e in 0..(n - 2 * m) {
+            dq[2 * m + e] = value(&poly.coefficients[m + e]);
+        }
     }
 
     /// The dense point at `t`, kept (a switch search asks for the state
@@ -693,12 +701,30 @@ impl<R: ModalRhs> Exponential<R> {
         let modes = &self.modes;
         let n = q0.len();
         let mut q = vec![0.0; n];
-        match self.grid_responses(*t0, *h, t) {
-            Some(r) => Self::state_at(modes, q0, poly, &r, *h, &mut q),
-            None => {
-                let mut r = Responses::default();
-                r.compute(modes, t - t0, *h);
-                Self::state_at(modes, q0, poly, &r, *h, &mut q);
+        let tau = t - t0;
+        let end = if tau.abs() <= NEAR_END * h {
+            Some((0.0, q0))
+        } else if (tau - h).abs() <= NEAR_END * h {
+            Some((*h, &self.q))
+        } else {
+            None
+        };
+        if let Some((at, qe)) = end {
+            // Within NEAR_END of the step from an end (the peak force's
+            // probes): the end's state moved by its rate; the next term,
+            // (NEAR_END h omega)^2 / 2 of the state, is a few roundings.
+            Self::modal_rate(modes, qe, poly, at / h, &mut q);
+            for i in 0..n {
+                q[i] = qe[i] + (tau - at) * q[i];
+            }
+        } else {
+            match self.grid_responses(*t0, *h, t) {
+                Some(r) => Self::state_at(modes, q0, poly, &r, *h, &mut q),
+                None => {
+                    let mut r = Responses::default();
+                    r.compute(modes, tau, *h);
+                    Self::state_at(modes, q0, poly, &r, *h, &mut q);
+                }
             }
         }
         *cache = Some(DensePoint { t, q, y: None, dy: None });
