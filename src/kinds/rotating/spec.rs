@@ -197,18 +197,21 @@ impl SolverSpec {
     /// by default about two seconds of steps at `n_modes`. A DOP853 step
     /// with its event search costs at most about 12 + 0.03 (N+1)^2 us
     /// (DWZ: 4 us at 6 modes, 35 us at 32; contact-heavy random parameters
-    /// up to 16 us at 6), a Radau step about ten times that: 148 000
-    /// DOP853 steps at 6 modes, 44 000 at 32. The DWZ scene's 0.05 s takes
-    /// 500 to 2 000 steps at 6 modes, 3 000 to 40 000 at 32 (tolerance
-    /// 1e-4 to 1e-13).
+    /// up to 16 us at 6), a Radau step about ten times that, an
+    /// exponential one about 4 + 0.008 (N+1)^2 us (DWZ: 13 us at 32
+    /// modes, 39 us at 64): 148 000 DOP853 steps at 6 modes, 44 000 at
+    /// 32; 157 000 exponential steps at 32 modes, 53 000 at 64. The DWZ
+    /// scene's 0.05 s takes 500 to 2 000 steps at 6 modes, 1 000 to
+    /// 25 000 at 32 (tolerance 1e-3 to 1e-13).
     pub fn step_budget(&self, n_modes: usize) -> u64 {
         self.max_steps_per_step.unwrap_or_else(|| {
-            let micros = 12.0 + 0.03 * ((n_modes + 1) * (n_modes + 1)) as f64;
-            let steps = 2e6 / micros;
-            match self.method.resolve(n_modes) {
-                super::stepper::Method::Radau => (0.1 * steps) as u64,
-                _ => steps as u64,
-            }
+            let products = ((n_modes + 1) * (n_modes + 1)) as f64;
+            let micros = match self.method.resolve(n_modes) {
+                super::stepper::Method::Radau => 10.0 * (12.0 + 0.03 * products),
+                super::stepper::Method::Exponential => 4.0 + 0.008 * products,
+                _ => 12.0 + 0.03 * products,
+            };
+            (2e6 / micros) as u64
         })
     }
 }
