@@ -24,14 +24,17 @@
 //! less than a hundredth of the tolerance, or until the contraction
 //! measured on the phase's steps says the next sweep would move it by
 //! far less ([`Contraction`]). The error estimate is what the
-//! polynomial's top term adds at the step's end; the step grows or shrinks as DOP853's does. The
-//! dense output is the same formula at any time inside the step: of
-//! the method's full order, with its exact derivative.
+//! polynomial's top term adds at the step's end; the step grows or
+//! shrinks as DOP853's does. The dense output is the same formula at any
+//! time inside the step: of the method's full order, with its exact
+//! derivative.
 //!
 //! **Cost.** Step sizes come from the ladder of [`super::step_ladder`]:
-//! the modes' responses at the nodes (phi functions at every node and
-//! mode, a quarter of a step's work at 32 modes) are kept per size and
-//! shared by the steps of that size.
+//! the modes' responses at the nodes and at the switch locator's samples
+//! (phi functions at every node and mode) are kept per size in the
+//! [`LinearModes`], shared by every step of that size and every
+//! integration with those modes. Dense queries within [`NEAR_END`] of a
+//! step's end move the end's state by its rate.
 
 use std::sync::{Arc, Mutex};
 

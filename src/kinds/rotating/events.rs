@@ -15,7 +15,7 @@ use super::stepper::Stepper;
 use super::system::{ContactPoint, Phase};
 use crate::contact::{Contact, Watch};
 use crate::solve::extremum::maximize;
-use crate::solve::switch::{first_switch, DenseWatch, SAMPLES};
+use crate::solve::switch::{first_switch, grid, DenseWatch, SAMPLES};
 
 /// The last accepted step `[t0, t1]` of `solver`, with the state `y0` at its start.
 pub struct StepCurve<'a> {
@@ -145,11 +145,15 @@ impl<'a> StepCurve<'a> {
         self.rates.borrow_mut().put(t, r)
     }
 
-    /// The penetration and its rate strictly inside the step from the
-    /// exponential integrator's modal state (its ends: from the states
-    /// the next step starts from, [`Self::y`]).
+    /// The penetration and its rate at a sample of the step's grid
+    /// ([`crate::solve::switch::grid`], inside the step) from the
+    /// exponential integrator's modal state. Everywhere else (the step's
+    /// ends, the roots' bisection, the peak's search) they come from the
+    /// physical state ([`Self::y`]): a switch's time is where the physical
+    /// state's function changes sign, so the next phase, which starts
+    /// from that state, does not start a rounding past its zero.
     fn inside_penetration(&self, t: f64) -> Option<(f64, f64)> {
-        if !(t > self.t0 && t < self.t1) {
+        if !(t > self.t0 && t < self.t1 && grid(self.t0, self.t1).contains(&t)) {
             return None;
         }
         self.solver.dense_penetration(self.phase, t, &mut self.buffers.borrow_mut().2)

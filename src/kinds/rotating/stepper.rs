@@ -1,10 +1,10 @@
 //! The rotating beam's integrators behind one interface: the exponential
 //! integrator ([`crate::solve::exponential`]: the bending modes' linear
-//! response at the phase's start, with its hub speed's stiffening,
-//! propagated exactly, the remainder collocated; `auto` from 10 modes
-//! on), DOP853 ([`crate::solve::dop853`], explicit, order 8 with a
-//! 7th-order dense output; `auto` below 10 modes) and Radau IIA
-//! ([`crate::solve::radau`], L-stable, order 5).
+//! response, with the stiffening of a hub speed near the phase's start
+//! ([`super::frozen`]), propagated exactly, the remainder collocated;
+//! `auto` from 10 modes on), DOP853 ([`crate::solve::dop853`], explicit,
+//! order 8 with a 7th-order dense output; `auto` below 10 modes) and
+//! Radau IIA ([`crate::solve::radau`], L-stable, order 5).
 //!
 //! All three take the phase's tolerances ([`RadauOptions`]: rtol, atol per
 //! component, the step cap), step on their own grid, and give a dense
@@ -17,9 +17,9 @@
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
+use super::frozen::Frozen;
 use super::system::Phase;
 use crate::contact::Contact;
-use super::frozen::Frozen;
 use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations};
 use crate::solve::dop853::{Dop853, Rhs};
 use crate::solve::exponential::{Exponential, ModalRhs};
