@@ -145,6 +145,21 @@ impl<'a> StepCurve<'a> {
         self.rates.borrow_mut().put(t, r)
     }
 
+    /// The contact point for the peak force's search: inside the step
+    /// from the exponential integrator's modal state (the search decides
+    /// no switch), else [`Self::point`].
+    fn peak_point(&self, t: f64) -> ContactPoint {
+        if let Some(c) = self.points.borrow().get(t) {
+            return c;
+        }
+        if t > self.t0 && t < self.t1 {
+            if let Some((penetration, rate)) = self.solver.dense_penetration(self.phase, t, &mut self.buffers.borrow_mut().2) {
+                return self.phase.contact_point_from(penetration, rate);
+            }
+        }
+        self.point(t)
+    }
+
     /// The penetration and its rate at a sample of the step's grid
     /// ([`crate::solve::switch::grid`], inside the step) from the
     /// exponential integrator's modal state. Everywhere else (the step's
@@ -267,7 +282,7 @@ impl<'a> StepCurve<'a> {
         if h <= 0.0 || h.is_nan() {
             return None;
         }
-        let f = |t: f64| self.point(t).force;
+        let f = |t: f64| self.peak_point(t).force;
         let ts: Vec<f64> = (0..=SAMPLES).map(|k| if k == SAMPLES { end } else { self.t0 + h * k as f64 / SAMPLES as f64 }).collect();
         let fs: Vec<f64> = ts.iter().map(|&t| f(t)).collect();
         let k = (0..ts.len()).fold(0, |best, i| if fs[i] > fs[best] { i } else { best });
