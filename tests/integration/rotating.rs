@@ -359,8 +359,10 @@ fn c_single_impact_against_rk4() {
     let exit_error = |y: &DVector<f64>| (y - &y_r).abs().component_div(&y_r.abs().map(|v| v.max(1e-3))).amax();
     // The errors fall with the tolerance.
     let mut errors = vec![];
-    // (DOP853 is given a hundredth of solver.tolerance: 1e-9, 1e-11, 1e-13.)
-    for tol in [1e-7, 1e-9, 1e-11] {
+    // (The exponential integrator is given 1.7, 3 and 3 times
+    // solver.tolerance; its error at 1e-9 is already at the RK4
+    // reference's, about 2e-11.)
+    for tol in [1e-5, 1e-7, 1e-9] {
         spec.solver.tolerance = tol;
         let (on, off, peak, y, st) = engine_first_contact(&spec);
         errors.push(exit_error(&y));

@@ -156,6 +156,7 @@ impl RotatingSimulation {
             phase,
             solver,
             options: RadauOptions::default(),
+            release_floor: None,
             anchor_time,
             anchor: anchor.clone(),
             step: None,
@@ -222,5 +223,5 @@ fn penetration_level(model: &RotatingModel, z: &nalgebra::DVector<f64>) -> f64 {
     let floor = 1e-4 * model.beam.params.length;
     let hub = if model.prescribed().is_some() { 0.0 } else { radius * z[0].abs() + floor };
     let modes: f64 = (0..n).map(|j| model.beam.w[j].abs() * (z[1 + j].abs() + floor)).sum();
-    (16.0 * model.spec.solver.integration_rtol(model.n_modes()) * (hub + modes)).max(1e-9 * radius)
+    (16.0 * model.spec.solver.integration_rtol() * (hub + modes)).max(1e-9 * radius)
 }

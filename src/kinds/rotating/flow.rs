@@ -223,7 +223,7 @@ pub fn flow_unsupported(model: &super::RotatingModel) -> Option<String> {
                 .into(),
         ),
         Some(HubMotion::SpinUp(_)) => Some("the hub's spin-up is not periodic (prescribe a harmonic swing, hub.prescribed.type = harmonic)".into()),
-        Some(HubMotion::Swing(_)) => match model.spec.solver.method.resolve(model.n_modes()) {
+        Some(HubMotion::Swing(_)) => match model.spec.solver.method.resolve() {
             Method::Dop853 => None,
             other => Some(format!(
                 "its Jacobian replays DOP853's steps, and solver.method resolves to {other:?} at {} modes: set solver.method to dop853",

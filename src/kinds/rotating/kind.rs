@@ -74,8 +74,8 @@ impl Scene for RotatingScene {
 
     fn method(&self) -> &'static str {
         "The hub angle and the bending modes (with geometric stiffening in the first-order model) are \
-         integrated by DOP853 (from 10 modes on by an exponential integrator: the modes' linear response \
-         exact, the remainder collocated; or as solver.method says) with error control on a step grid that \
+         integrated by an exponential integrator (the modes' linear response exact, the remainder \
+         collocated; or as solver.method says) with error control on a step grid that \
          never depends on the communication step; contact onsets, the end of each push and \
          separations are located on every step's dense output, including interior minima of the gap, so a graze \
          inside a step is not missed. Events are reported through the outputs and the \
