@@ -321,6 +321,17 @@ impl Responses {
     }
 }
 
+/// [`Exponential::step`]'s working arrays: the nodes' remainders and
+/// states, the end's last state, the error's terms, the end's remainder.
+#[derive(Clone, Debug, Default)]
+struct StepScratch {
+    values: Vec<Vec<f64>>,
+    states: Vec<Vec<f64>>,
+    previous_end: Vec<f64>,
+    top: Vec<f64>,
+    end_remainder: Vec<f64>,
+}
+
 /// One step's polynomial: monomial coefficients (in `tau / h`) of every
 /// remainder (`m` modes, then the extras' rates).
 #[derive(Clone, Debug)]
@@ -352,6 +363,10 @@ pub struct Exponential<R: Rhs> {
     pub evaluations: u64,
     /// The last dense query.
     dense_cache: std::cell::RefCell<Option<DensePoint>>,
+    /// Room for the modes' responses at a dense query off the kept grid.
+    dense_responses: std::cell::RefCell<Responses>,
+    /// A step's working arrays, kept between steps.
+    scratch: StepScratch,
     /// The sweeps' contraction, once measured, and the accepted steps
     /// since a step measured it.
     contraction: Option<Contraction>,
@@ -414,6 +429,8 @@ impl<R: ModalRhs> Exponential<R> {
             rejected: 0,
             evaluations: 0,
             dense_cache: Default::default(),
+            dense_responses: Default::default(),
+            scratch: Default::default(),
             contraction: None,
             steps_since_measured: 0,
             scratch_y: vec![0.0; n],
@@ -523,6 +540,13 @@ impl<R: ModalRhs> Exponential<R> {
 
     /// One accepted step `[t0, t1]`.
     pub fn step(&mut self) -> Result<(f64, f64), ExpStepError> {
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let result = self.step_with(&mut scratch);
+        self.scratch = scratch;
+        result
+    }
+
+    fn step_with(&mut self, scratch: &mut StepScratch) -> Result<(f64, f64), ExpStepError> {
         let n = self.q.len();
         let m = self.modes.len();
         let ncomp = n - m;
@@ -530,9 +554,16 @@ impl<R: ModalRhs> Exponential<R> {
         let q0 = self.q.clone();
         let mut h = self.h_next.min(self.max_step);
         let nodes_c = self.nodes.0.c;
-        let mut values: Vec<Vec<f64>> = vec![self.g.clone(); NODES];
+        let StepScratch { values, states, previous_end, top, end_remainder } = scratch;
+        values.resize_with(NODES, Vec::new);
+        states.resize_with(NODES, Vec::new);
+        for (v, s) in values.iter_mut().zip(states.iter_mut()) {
+            v.clear();
+            v.extend_from_slice(&self.g);
+            s.clear();
+            s.resize(n, 0.0);
+        }
         let mut poly = Polynomial { coefficients: vec![[0.0; NODES]; ncomp] };
-        let mut states: Vec<Vec<f64>> = vec![vec![0.0; n]; NODES];
         // A rejected attempt's size and polynomial.
         let mut attempt: Option<(f64, Polynomial)> = None;
         loop {
@@ -561,17 +592,18 @@ impl<R: ModalRhs> Exponential<R> {
                 }
             }
             let mut converged = false;
-            let mut previous_end = vec![f64::NAN; n];
+            previous_end.clear();
+            previous_end.resize(n, f64::NAN);
             let mut previous_move = f64::NAN;
             // Whether this step may stop on the measured contraction (every
             // CHECK_EVERY-th step sweeps to the end and measures it again).
             let expected = self.contraction.filter(|_| self.steps_since_measured < Contraction::CHECK_EVERY).map(|c| c.at(h)).filter(|r| *r < 0.5);
             for _sweep in 0..MAX_SWEEPS {
-                self.fit(&values, &mut poly);
+                self.fit(values, &mut poly);
                 // The end first: the other nodes only for another sweep.
                 Self::state_at(&modes, &q0, &poly, &responses[NODES - 1], h, &mut states[NODES - 1]);
                 let end = &states[NODES - 1];
-                let moved = self.norm_of_difference(end, &previous_end);
+                let moved = self.norm_of_difference(end, previous_end);
                 if moved.is_finite() && moved < 0.01 {
                     if previous_move.is_finite() && previous_move > 0.0 {
                         self.contraction = Some(Contraction { ratio: moved / previous_move, h });
@@ -600,7 +632,8 @@ impl<R: ModalRhs> Exponential<R> {
             // The error: what the top term adds at the end.
             let error = if converged {
                 let r = &responses[NODES - 1];
-                let mut top = vec![0.0; n];
+                top.clear();
+                top.resize(n, 0.0);
                 for k in 0..m {
                     let c = poly.coefficients[k][NODES - 1];
                     top[k] = c * r.forced[k][NODES - 1][0];
@@ -609,7 +642,7 @@ impl<R: ModalRhs> Exponential<R> {
                 for e in 0..(n - 2 * m) {
                     top[2 * m + e] = h * poly.coefficients[m + e][NODES - 1] / NODES as f64;
                 }
-                self.norm(&top, &states[NODES - 1])
+                self.norm(top, &states[NODES - 1])
             } else {
                 f64::INFINITY
             };
@@ -620,9 +653,11 @@ impl<R: ModalRhs> Exponential<R> {
                 self.g.copy_from_slice(&values[NODES - 1]);
                 // The end's remainder at the end state (the last sweep's
                 // value is one sweep old).
-                let (qe, mut ge) = (self.q.clone(), vec![0.0; ncomp]);
-                self.remainder(t1, &qe, &mut ge);
-                self.g = ge;
+                end_remainder.clear();
+                end_remainder.resize(ncomp, 0.0);
+                let qe = &states[NODES - 1];
+                self.remainder(t1, qe, end_remainder);
+                self.g.copy_from_slice(end_remainder);
                 self.t = t1;
                 self.modes.to_physical(&self.q, &mut self.y);
                 self.h_next = h * factor;
@@ -703,7 +738,10 @@ impl<R: ModalRhs> Exponential<R> {
         }
         let modes = &self.modes;
         let n = q0.len();
-        let mut q = vec![0.0; n];
+        // The last point's room, reused.
+        let mut q = cache.take().map(|p| p.q).unwrap_or_default();
+        q.clear();
+        q.resize(n, 0.0);
         let tau = t - t0;
         let end = if tau.abs() <= NEAR_END * h {
             Some((0.0, q0))
@@ -724,7 +762,7 @@ impl<R: ModalRhs> Exponential<R> {
             match self.grid_responses(*t0, *h, t) {
                 Some(r) => Self::state_at(modes, q0, poly, &r, *h, &mut q),
                 None => {
-                    let mut r = Responses::default();
+                    let mut r = self.dense_responses.borrow_mut();
                     r.compute(modes, tau, *h);
                     Self::state_at(modes, q0, poly, &r, *h, &mut q);
                 }

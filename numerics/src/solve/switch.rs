@@ -46,6 +46,12 @@ pub fn grid(t0: f64, t1: f64) -> Vec<f64> {
     std::iter::once(t0).chain((1..=SAMPLES).map(|k| sample(t0, t1, k))).collect()
 }
 
+/// Whether `t` is one of [`grid`]'s samples strictly inside `[t0, t1]`
+/// (the same expressions, no allocation).
+pub fn is_inner_sample(t0: f64, t1: f64, t: f64) -> bool {
+    (1..SAMPLES).any(|k| sample(t0, t1, k) == t)
+}
+
 /// Sample `k` of `[t0, t1]` (`k = SAMPLES` is `t1`).
 fn sample(t0: f64, t1: f64, k: usize) -> f64 {
     if k == SAMPLES {

@@ -15,7 +15,7 @@ use super::stepper::Stepper;
 use super::system::{ContactPoint, Phase};
 use crate::contact::{Contact, Watch};
 use crate::solve::extremum::maximize;
-use crate::solve::switch::{first_switch, grid, DenseWatch, SAMPLES};
+use crate::solve::switch::{first_switch, is_inner_sample, DenseWatch, SAMPLES};
 
 /// The last accepted step `[t0, t1]` of `solver`, with the state `y0` at its start.
 pub struct StepCurve<'a> {
@@ -168,7 +168,7 @@ impl<'a> StepCurve<'a> {
     /// state's function changes sign, so the next phase, which starts
     /// from that state, does not start a rounding past its zero.
     fn inside_penetration(&self, t: f64) -> Option<(f64, f64)> {
-        if !(t > self.t0 && t < self.t1 && grid(self.t0, self.t1).contains(&t)) {
+        if !(t > self.t0 && t < self.t1 && is_inner_sample(self.t0, self.t1, t)) {
             return None;
         }
         self.solver.dense_penetration(self.phase, t, &mut self.buffers.borrow_mut().2)
