@@ -396,7 +396,7 @@ def spin_up(case, scene, modes, radau, fmu, fmu_rows, checks, tolerance_rows) ->
     ref = min(ok, key=lambda r: r["tol"])
     w_ref = ref["w"]
     scale = float(np.max(np.abs(w_ref)))
-    rname = f"FMU {fmu.tol_name} {ref['tol']:.0e} (dop853)"
+    rname = f"FMU {fmu.tol_name} {ref['tol']:.0e} (solver.method auto: exponential)"
     for t in (radau.tolerances()[-1], 10 * radau.tolerances()[-1]):
         try:
             w, _ = radau.grid(t, case.t_end)
