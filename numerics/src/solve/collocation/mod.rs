@@ -251,16 +251,23 @@ impl ForceCollocation {
     /// inside the last step): one step when its error passes, else steps
     /// under error control landing on `t1` (the last before a separation
     /// ends on the force's `t^a` corner, which a step over the whole
-    /// interval may miss). Warm-started from the last step's force.
-    /// `corner`: `t1` may be where a force ends (a switch; see
-    /// [`Self::near_corner`]).
+    /// interval may miss: [`Self::approach`]). Warm-started from the last
+    /// step's force. `corner`: `t1` may be where a force ends (a switch;
+    /// see [`Self::near_corner`]).
     pub fn single_step(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, t1: f64, corner: bool) -> Result<DVector<f64>, NewtonFailure> {
-        let order = (self.scheme.s + 2) as f64;
+        let (t, y) = if corner { self.approach(forces, t0, y0, t1)? } else { (t0, y0.clone()) };
+        self.land(forces, t, y, t1)
+    }
+
+    /// The state where the last piece of a step onto a corner at `t1`
+    /// starts: pieces shrinking fourfold toward `t1` from `(t0, y0)`, the
+    /// last, `tol^(1/(a+2))` of the interval long, left to [`Self::land`]
+    /// (where a force ends there as `t^a`, a separation, it carries the
+    /// corner's error to the tolerance). A time near `t1` past that start
+    /// is reached by landing from it too.
+    pub fn approach(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, t1: f64) -> Result<(f64, DVector<f64>), NewtonFailure> {
         let (mut t, mut y) = (t0, y0.clone());
-        // Pieces shrinking fourfold toward a corner at t1: where a force
-        // ends there as t^a (a separation), the last, tol^(1/(a+2)) of
-        // the interval long, carries the corner's error to the tolerance.
-        let smallest = if corner { self.options.corner_fraction } else { 1.0 };
+        let smallest = self.options.corner_fraction;
         let mut remaining = 1.0;
         while remaining / GRADING > smallest && t1 - t > 0.0 {
             // A size of the ladder, whose kernels recur from switch to switch.
@@ -271,6 +278,13 @@ impl ForceCollocation {
             self.recycle(a.step);
             remaining /= GRADING;
         }
+        Ok((t, y))
+    }
+
+    /// The state at `t1` from `(t, y)`: one step when its error passes,
+    /// else steps under error control landing on `t1`.
+    pub fn land(&self, forces: &impl PointForces, mut t: f64, mut y: DVector<f64>, t1: f64) -> Result<DVector<f64>, NewtonFailure> {
+        let order = (self.scheme.s + 2) as f64;
         let mut h = t1 - t;
         for _ in 0..1000 {
             let last = t + h >= t1;

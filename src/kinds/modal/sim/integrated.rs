@@ -148,6 +148,14 @@ impl IntegratedSegment {
     }
 }
 
+/// Where the last piece toward a switch's first estimate started
+/// ([`IntegratedSegment::switch_state`]).
+struct Approach {
+    t: f64,
+    y: DVector<f64>,
+    aimed: f64,
+}
+
 impl IntegratedSegment {
     /// A held stop's push at `t` in `state`, with the size of the terms it
     /// is formed from (for the level a decoder takes as zero); `None` when
@@ -175,14 +183,31 @@ impl IntegratedSegment {
     }
 
     /// The state at a switch at `te` in the step `[t0, t1]` from `y0`: a
-    /// step of its own (the end state at `t1`).
-    fn switch_state(&self, t0: f64, y0: &DVector<f64>, t1: f64, te: f64) -> DVector<f64> {
+    /// step of its own (the end state at `t1`), by pieces shrinking toward
+    /// `te` ([`ForceCollocation::approach`]). `approach`: where the last
+    /// piece toward an earlier estimate of the switch started, and that
+    /// estimate, kept by the first call; a later estimate past that start
+    /// and no further beyond the earlier estimate than the last piece's
+    /// length lands from there (the pieces before are states of the
+    /// motion, whichever estimate they aimed at; the last piece stays
+    /// within twice its length).
+    fn switch_state(&self, t0: f64, y0: &DVector<f64>, t1: f64, te: f64, approach: &mut Option<Approach>) -> DVector<f64> {
         let mut at = DVector::zeros(self.phase.dim());
         if te == t1 || te <= t0 {
             self.y_at(te, &mut at);
             return at;
         }
-        match self.solver.single_step(&self.phase, t0, y0, te, true) {
+        let start = match approach.as_ref().filter(|a| a.t < te && te - a.aimed <= a.aimed - a.t) {
+            Some(a) => Ok((a.t, a.y.clone())),
+            None => self.solver.approach(&self.phase, t0, y0, te),
+        };
+        let landed = start.and_then(|(ta, ya)| {
+            if approach.is_none() {
+                *approach = Some(Approach { t: ta, y: ya.clone(), aimed: te });
+            }
+            self.solver.land(&self.phase, ta, ya, te)
+        });
+        match landed {
             Ok(y) => y,
             Err(_) => {
                 self.y_at(te, &mut at);
@@ -481,7 +506,8 @@ impl Simulation {
             // The state at the switch: a step of its own from the step's start.
             let y0 = seg.step.as_ref().expect("a step").2.clone();
             let attempts_before_switch = seg.solver.attempts();
-            let mut at = seg.switch_state(t0, &y0, t1, te);
+            let mut approach = None;
+            let mut at = seg.switch_state(t0, &y0, t1, te, &mut approach);
             // The zero is the dense output's (stage order): Newton on the
             // full-order state, each iterate a step from the step's start,
             // moves it to the full-order zero (within the step, after the
@@ -512,7 +538,7 @@ impl Simulation {
                     if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
                         break;
                     }
-                    at = seg.switch_state(t0, &y0, t1, next);
+                    at = seg.switch_state(t0, &y0, t1, next, &mut approach);
                     te = next;
                 }
                 for _ in 0..6 {
@@ -534,7 +560,7 @@ impl Simulation {
                     // A step on from the switch state.
                     at = match seg.solver.single_step(&seg.phase, te, &at, next, false) {
                         Ok(y) => y,
-                        Err(_) => seg.switch_state(t0, &y0, t1, next),
+                        Err(_) => seg.switch_state(t0, &y0, t1, next, &mut approach),
                     };
                     te = next;
                 }
