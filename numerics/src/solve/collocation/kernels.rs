@@ -13,7 +13,7 @@ use super::ForceCollocation;
 /// Intervals of the switch locator's grid (its samples).
 pub(super) const GRID: usize = SAMPLES;
 /// Kernel sets kept.
-const KERNEL_SETS: usize = 48;
+const KERNEL_SETS: usize = 96;
 pub(super) use super::super::step_ladder as ladder;
 
 /// What every step of one size needs, mode by mode: the responses to the
@@ -56,8 +56,14 @@ impl ForceCollocation {
     /// The kernels of steps of size `h`: from the ladder's cache, or
     /// computed (with the grid's when `grid`, and kept).
     pub(super) fn kernels_for(&self, h: f64, grid: bool) -> Arc<StepKernels> {
-        if let Some(k) = self.kernels.borrow().iter().find(|k| k.h == h && (!grid || !k.grid_free.is_empty())) {
-            return k.clone();
+        {
+            let mut cache = self.kernels.borrow_mut();
+            if let Some(i) = cache.iter().rposition(|k| k.h == h && (!grid || !k.grid_free.is_empty())) {
+                // The most recently used last: the oldest is dropped first.
+                let k = cache.remove(i);
+                cache.push(k.clone());
+                return k;
+            }
         }
         let (n, s) = (self.n, self.scheme.s);
         let points: Vec<f64> = self.scheme.c.iter().map(|c| c * h).chain(std::iter::once(h)).collect();
@@ -115,8 +121,13 @@ impl ForceCollocation {
     /// step size of `kernels`, remembered for the sizes of the ladder.
     pub(super) fn projected_for(&self, kernels: &Arc<StepKernels>, cached: bool) -> Arc<Projected> {
         let h = kernels.h;
-        if let Some(p) = self.projections.borrow().iter().find(|p| p.h == h) {
-            return p.clone();
+        {
+            let mut cache = self.projections.borrow_mut();
+            if let Some(i) = cache.iter().rposition(|p| p.h == h) {
+                let p = cache.remove(i);
+                cache.push(p.clone());
+                return p;
+            }
         }
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
@@ -172,10 +183,15 @@ impl ForceCollocation {
     }
 
     /// The kernel sets of another stepper over the same structure (the
-    /// previous contact phase's): its step sizes recur.
+    /// previous contact phase's): its step sizes recur. Its contacts'
+    /// responses too where it has the same contacts (positions and
+    /// directions: the gaps do not enter them).
     pub fn adopt_kernels(&mut self, other: &ForceCollocation) {
         if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
             *self.kernels.borrow_mut() = other.kernels.borrow().clone();
+            if other.dd == self.dd {
+                *self.projections.borrow_mut() = other.projections.borrow().clone();
+            }
         }
     }
 
