@@ -9,7 +9,9 @@
 //! locates it to an ulp: the first point past the zero. A function already
 //! negative at the bracket's start (by rounding, at the restart after a
 //! switch) is placed at the bracket's end, so that a search never moves
-//! on by a mere ulp.
+//! on by a mere ulp; one at zero and rising there (a geometric function
+//! leaving a switch) is bisected from the first point a few ulps on where
+//! it is positive, its rounding just after the start not taken for a zero.
 //! The bracket always starts at a sample of the step's own grid, so a
 //! search resumed inside a step finds bit for bit the zero an
 //! uninterrupted one finds.
@@ -113,7 +115,7 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
                 // A function already negative at the bracket's start (by
                 // rounding, after a switch) is placed at the bracket's end:
                 // the search moves on by a sample, never by an ulp.
-                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), previous, b) } else { b };
+                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), clear_of_rounding(watch, i, previous, b), b) } else { b };
                 let slope = if b > previous { (vb - va.max(0.0)) / (b - previous) } else { -1.0 };
                 roots.push((i, root, slope.min(-f64::MIN_POSITIVE)));
             }
@@ -129,6 +131,28 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
         return Some(Located { time, at_zero, from: previous });
     }
     None
+}
+
+/// Where the bisection of function `i` on `[a, b]` starts: `a`, or, when
+/// the function rises at `a` (a geometric function leaving a switch at
+/// its rounding level), the first of `a + 8, 64, 512, ... ulps` (up to a
+/// millionth of the bracket) where it is positive. Rising from a value
+/// `>= 0`, it has no zero that close: a value below zero there is its
+/// rounding (the dense output at `a + ulp` may differ from the state at
+/// `a` in the last bits), which a bisection would take for the zero.
+fn clear_of_rounding(watch: &impl DenseWatch, i: usize, a: f64, b: f64) -> f64 {
+    if !watch.rate(i, a).is_some_and(|r| r > 0.0) {
+        return a;
+    }
+    let limit = 1e-6 * (b - a);
+    let mut step = 8.0 * f64::EPSILON * a.abs().max(b.abs());
+    while step <= limit {
+        if watch.value(i, a + step) > 0.0 {
+            return a + step;
+        }
+        step *= 8.0;
+    }
+    a
 }
 
 /// The first point in `(a, b]` past which `f` is negative, given
@@ -317,6 +341,19 @@ mod tests {
         let q = |t: f64| (t - 2.3) * (t - 2.3);
         let dq = |t: f64| 2.0 * (t - 2.3);
         assert!(hermite_minimum(q(2.0), dq(2.0), q(2.5), dq(2.5), 0.5).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_function_rising_from_its_rounding_has_no_zero_there() {
+        // Zero at the step's start (a switch), rising, its evaluation a
+        // rounding below zero just after it, and a true zero at 0.2, in
+        // the first sample interval.
+        let c = Curves(vec![(|t| if t > 0.0 && t < 1e-14 { -1e-18 } else { t * (0.2 - t) }, Some(|t| 0.2 - 2.0 * t))]);
+        let s = first_switch(&c, 0.0, 1.0, 0.0).unwrap();
+        assert!((s.time - 0.2).abs() < 1e-15, "{}", s.time);
+        // Falling from zero: the zero is at the start (within an ulp).
+        let c = Curves(vec![(|t| -t, Some(|_| -1.0))]);
+        assert!(first_switch(&c, 0.0, 1.0, 0.0).unwrap().time < 1e-300);
     }
 
     #[test]
