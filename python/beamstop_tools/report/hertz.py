@@ -412,7 +412,7 @@ def findings(rows, stiffness, bs, model) -> str:
         f"{per_probe:.0f} us (median over the tolerances), a DOP853 step attempt {per_step:.1f} us. "
         + contact_cmp
         + "beamstop collocates each contact force at 4 Gauss nodes per step and propagates every mode exactly "
-        "under it (numerics/src/solve/collocation.rs), so a step is Newton on 4 nodal forces plus O(N) kernels, shared by "
+        "under it (numerics/src/solve/collocation/), so a step is Newton on 4 nodal forces plus O(N) kernels, shared by "
         "the steps of one size; its steps still follow the structure's top modes, because the force carries "
         "them: the contact point moves with every mode, and the force has their ripple. The contact is not "
         "stiff against the structure either: linearised at the deepest penetration of "
