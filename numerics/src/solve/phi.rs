@@ -12,7 +12,8 @@
 //!   `phi_{k+1} b = X^{-1} (phi_k b - b / k!)` from `phi_0 b = e^X b`, with
 //!   `e^X b - b` from the kernels' `Ec - 1`;
 //! - smaller: the Taylor series of the highest `phi` (a few terms), then
-//!   downward, `phi_k b = X phi_{k+1} b + b / k!`;
+//!   downward, `phi_k b = X phi_{k+1} b + b / k!`, down to `phi_0 b`
+//!   (no sine, cosine or exponential on this path);
 //! - strongly over-damped (two well-separated real rates): per eigenvalue,
 //!   the scalar `phi_k` by the same two recurrences.
 
@@ -30,9 +31,9 @@ pub fn phi_columns(osc: &Oscillator, tau: f64, out: &mut [[f64; 2]]) {
             return overdamped(a, mu, tau, out);
         }
     }
-    let (ec, es, ec_m1) = osc.kernels_and_increment(tau);
-    out[0] = [es, ec - a * es];
     if osc.omega * tau >= 2.0 {
+        let (ec, es, ec_m1) = osc.kernels_and_increment(tau);
+        out[0] = [es, ec - a * es];
         // phi_0 b - b.
         let mut v = [es, ec_m1 - a * es];
         let mut fact = 1.0;
@@ -62,7 +63,8 @@ pub fn phi_columns(osc: &Oscillator, tau: f64, out: &mut [[f64; 2]]) {
         u = [xu[0], xu[1] + inv_fact(i + kmax)];
     }
     out[kmax] = u;
-    for k in (1..kmax).rev() {
+    // Down to phi_0 b = e^X b too: no sine, cosine or exponential here.
+    for k in (0..kmax).rev() {
         let xu = x_times(out[k + 1]);
         out[k] = [xu[0], xu[1] + inv_fact(k)];
     }
