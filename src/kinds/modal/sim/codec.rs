@@ -445,6 +445,16 @@ impl Simulation {
 /// from a boundary: a departing flag's function lies within it.
 pub(super) const ON_BOUNDARY: f64 = 1e-9;
 
+/// Whether stop `i`'s watched function `watch` lies on its boundary in
+/// `state`: within the level [`check_departing`] allows a departing flag.
+pub(super) fn on_boundary(sim: &Simulation, i: usize, watch: Watch, state: &ModalState) -> bool {
+    if watch == Watch::Reaction {
+        return true;
+    }
+    let (value, level) = WatchValues::new(sim, i, state).watched(watch, ON_BOUNDARY / NOISE);
+    value.abs() <= level
+}
+
 /// Departing flags are claims that a function was on its boundary: at the
 /// last search point (`departing`) or at the anchor (`anchor_departing`,
 /// which the free segment takes as exactly zero there). The search's

@@ -129,8 +129,15 @@ impl Simulation {
         for &(i, next, rate) in switches.iter() {
             let m = &self.model.stops[i];
             contact[i] = next;
+            // The new phase's first function leaves its boundary here, when
+            // the switch state lies on it: a switch an integrated phase
+            // placed late at a loose tolerance (a separation 1e-6 of the
+            // gap outside the surface) leaves it off, and a free segment
+            // taking it as zero there would put the surface where the
+            // point left it (and a restore would refuse the flag).
+            let leaves = super::codec::on_boundary(self, i, m.law.watches(next)[0], st);
             let counters = &mut self.state.stops[i];
-            counters.departing = [true, false];
+            counters.departing = [leaves, false];
             match next {
                 Contact::Pressed if was[i] == Contact::Open => {
                     counters.impacts += 1;
