@@ -3,7 +3,7 @@
 
 use nalgebra::DVector;
 
-use crate::solve::free::FreeSegment;
+use crate::solve::free::{FreeSegment, Projection};
 use crate::solve::lu::{Lu, Order};
 use crate::solve::modal_state::ModalState;
 use super::scheme::horner;
@@ -33,6 +33,8 @@ pub(super) struct Scratch {
     /// The step's start and the free motion at its points.
     start: ModalState,
     end: ModalState,
+    /// The step's free motion projected on each contact's coordinate.
+    projections: Vec<Projection>,
     /// A step whose storage the next attempt reuses (a rejected attempt's,
     /// the last accepted step once replaced).
     spare: Option<Step>,
@@ -114,7 +116,7 @@ impl ForceCollocation {
         let kernels = self.kernels_for(h, cached);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
-        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, spare } = &mut *guard;
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, projections, spare } = &mut *guard;
         if start.q.len() != n {
             (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
         }
@@ -131,13 +133,25 @@ impl ForceCollocation {
         } else {
             y0_copy = y0.clone();
         }
-        // Free motion of the contact coordinates at the points; the
-        // state at the last (the step's end) is kept.
+        // Free motion of the contact coordinates at the points: at the
+        // nodes from the motion projected on each contact (two products
+        // per mode), at the end from the state, which is kept.
         reset(pf, nc * (s + 1));
         reset(pdf, nc * (s + 1));
+        projections.resize_with(nc, Default::default);
+        let projected = (0..nc).all(|c| free.projected(&self.dynamics, self.contacts[c].d.as_slice(), &mut projections[c]));
         for i in 0..=s {
             let tau = if i < s { self.scheme.c[i] * h } else { h };
-            free.state_with_kernels(&self.dynamics, t0 + tau, &kernels.free[i * n..(i + 1) * n], end);
+            let point_kernels = &kernels.free[i * n..(i + 1) * n];
+            if i < s && projected {
+                for c in 0..nc {
+                    let (p, pd) = projections[c].at(&self.dynamics, tau, point_kernels);
+                    pf[c * (s + 1) + i] = p - self.contacts[c].gap;
+                    pdf[c * (s + 1) + i] = pd;
+                }
+                continue;
+            }
+            free.state_with_kernels(&self.dynamics, t0 + tau, point_kernels, end);
             for c in 0..nc {
                 let d = &self.contacts[c].d;
                 pf[c * (s + 1) + i] = d.dot(&end.q) - self.contacts[c].gap;

@@ -262,6 +262,70 @@ impl FreeSegment {
     }
 }
 
+/// A segment's motion projected on one coordinate `c . q`: per mode the
+/// weights of its kernels `(Ec, Es)` in the coordinate and its rate, and
+/// per harmonic load the projected steady amplitude, so that the
+/// coordinate at a time costs two products per mode instead of the modal
+/// state ([`FreeSegment::projected`]).
+#[derive(Clone, Debug, Default)]
+pub struct Projection {
+    /// `(c alpha, c beta)` and `(c v0, -c (a v0 + omega^2 alpha))` per mode.
+    position: Vec<[f64; 2]>,
+    rate: Vec<[f64; 2]>,
+    /// `c . x_static`.
+    constant: f64,
+    /// `c . P b` per harmonic (steady parts only, rotated to the start).
+    steady: Vec<C64>,
+}
+
+impl Projection {
+    /// The coordinate and its rate at `t` (`s = t - t0 > 0`) from every
+    /// mode's kernels at `s` (`kernels[j]`).
+    pub fn at(&self, dynamics: &FreeDynamics, s: f64, kernels: &[(f64, f64)]) -> (f64, f64) {
+        let (mut x, mut v) = (self.constant, 0.0);
+        for ((p, r), &(ec, es)) in self.position.iter().zip(&self.rate).zip(kernels) {
+            x += p[0] * ec + p[1] * es;
+            v += r[0] * ec + r[1] * es;
+        }
+        for (amplitude, h) in self.steady.iter().zip(&dynamics.forcing.harmonics) {
+            let (sh, ch) = sin_cos(0.5 * h.omega * s);
+            let rot = C64::new(1.0 - 2.0 * sh * sh, 2.0 * sh * ch);
+            let z = amplitude * rot;
+            x += z.re;
+            v -= h.omega * z.im;
+        }
+        (x, v)
+    }
+}
+
+impl FreeSegment {
+    /// This segment's motion projected on `c . q` into `out`; `false`
+    /// where a harmonic load is near resonance (its response from rest is
+    /// not a fixed amplitude: the modal states' path then).
+    pub fn projected(&self, dynamics: &FreeDynamics, c: &[f64], out: &mut Projection) -> bool {
+        let n_harmonics = dynamics.forcing.harmonics.len();
+        out.position.clear();
+        out.rate.clear();
+        out.steady.clear();
+        out.steady.resize(n_harmonics, C64::new(0.0, 0.0));
+        out.constant = 0.0;
+        for (j, (seg, osc)) in self.modes.iter().zip(&dynamics.oscillators).enumerate() {
+            let w = c[j];
+            let v0 = seg.beta - osc.a * seg.alpha;
+            out.position.push([w * seg.alpha, w * seg.beta]);
+            out.rate.push([w * v0, -w * (osc.a * v0 + osc.omega * osc.omega * seg.alpha)]);
+            out.constant += w * seg.x_static;
+            for (part, total) in self.parts[j * n_harmonics..(j + 1) * n_harmonics].iter().zip(out.steady.iter_mut()) {
+                match part {
+                    HarmonicPart::Steady(pb) => *total += pb * w,
+                    HarmonicPart::FromRest(_) => return false,
+                }
+            }
+        }
+        true
+    }
+}
+
 /// The displacement since a segment's anchor, the size of its terms, and
 /// the steady response to the non-resonant loads at the same time.
 #[derive(Clone, Debug)]
@@ -328,6 +392,36 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_projected_motion_is_the_projection_of_the_modal_states() {
+        // Steady harmonic parts (no mode near resonance) and a constant
+        // load: the coordinate and its rate against d . q, d . q' of the
+        // modal states; a resonant load (from rest) has no projection.
+        use crate::solve::{ModalForcing, Oscillator};
+        let oscillators = vec![Oscillator::new(1.0, 0.02), Oscillator::new(4.0, 0.1), Oscillator::new(9.0, 2.0)];
+        let mut forcing = ModalForcing::zero(3);
+        forcing.constant = dvector![0.3, -0.2, 0.1];
+        forcing.add_harmonic(2.5, dvector![C64::new(0.4, 0.1), C64::new(-0.3, 0.0), C64::new(0.0, 0.7)]);
+        let dynamics = FreeDynamics::new(oscillators.clone(), forcing);
+        let start = ModalState { q: dvector![0.1, 0.2, -0.05], qd: dvector![-0.3, 0.4, 1.5] };
+        let (t0, d) = (0.7, [0.5, -1.2, 0.8]);
+        let seg = FreeSegment::new(&dynamics, t0, &start);
+        let mut projection = Projection::default();
+        assert!(seg.projected(&dynamics, &d, &mut projection));
+        let mut st = ModalState::zeros(3);
+        for s in [1e-6, 0.01, 0.3, 2.0, 7.5] {
+            let kernels: Vec<(f64, f64)> = oscillators.iter().map(|o| o.kernels(s)).collect();
+            let (p, pd) = projection.at(&dynamics, s, &kernels);
+            seg.state_at(&dynamics, t0 + s, &mut st);
+            let (want_p, want_pd) = ((0..3).map(|j| d[j] * st.q[j]).sum::<f64>(), (0..3).map(|j| d[j] * st.qd[j]).sum::<f64>());
+            assert!((p - want_p).abs() <= 1e-14 * (1.0 + want_p.abs()), "s = {s}: {p} vs {want_p}");
+            assert!((pd - want_pd).abs() <= 1e-14 * (1.0 + want_pd.abs()), "s = {s}: {pd} vs {want_pd}");
+        }
+        let resonant = super::super::tests::two_harmonic_dynamics();
+        let seg = FreeSegment::new(&resonant, t0, &start);
+        assert!(!seg.projected(&resonant, &d, &mut projection));
     }
 
     #[test]
