@@ -7,7 +7,7 @@ use crate::solve::modal_state::ModalState;
 use crate::solve::phi::phi_columns;
 use super::kernels::GRID;
 use super::scheme::{integral, taylor_shift};
-use super::{ForceCollocation, Step};
+use super::{ForceCollocation, Step, STAGES};
 
 /// Dense states remembered per step: the switch locator's samples and
 /// midpoints.
@@ -87,7 +87,7 @@ impl ForceCollocation {
         let kernels = self.kernels_for(l.h, true);
         let (prop, resp) = (&kernels.grid_propagator, &kernels.grid_responses);
         let mut z = vec![[0.0; 2]; n];
-        let mut shifted = vec![vec![0.0; s]; nc];
+        let mut shifted = vec![[0.0; STAGES]; nc];
         let mut st = ModalState::zeros(n);
         let mut memo = self.memo.borrow_mut();
         for (k, &t) in times.iter().enumerate() {
@@ -95,21 +95,27 @@ impl ForceCollocation {
                 // The load over [tau_{k-1}, tau_k] in u = (tau - tau_{k-1}) / delta.
                 let sigma = (k - 1) as f64 * ratio;
                 for (c, alpha) in l.force.iter().enumerate() {
-                    taylor_shift(alpha, sigma, ratio, &mut shifted[c]);
+                    taylor_shift(alpha, sigma, ratio, &mut shifted[c][..s]);
                 }
-                for j in 0..n {
-                    let e = prop[j];
-                    let (x, v) = (z[j][0], z[j][1]);
-                    let mut next = [e[0] * x + e[1] * v, e[2] * x + e[3] * v];
-                    for (c, gamma) in shifted.iter().enumerate() {
-                        let dj = self.contacts[c].d[j];
-                        for m in 0..s {
-                            let r = resp[j * s + m];
-                            next[0] -= dj * gamma[m] * r[0];
-                            next[1] -= dj * gamma[m] * r[1];
+                for (c, gamma) in shifted.iter().enumerate() {
+                    // Mode by mode, over slices (no index checks in the loop).
+                    let d = self.contacts[c].d.as_slice();
+                    for (((zj, e), r), &dj) in z.iter_mut().zip(&prop[..n]).zip(resp.chunks_exact(s)).zip(d) {
+                        let (x, v) = (zj[0], zj[1]);
+                        let mut next = if c == 0 { [e[0] * x + e[1] * v, e[2] * x + e[3] * v] } else { [x, v] };
+                        for (g, rm) in gamma[..s].iter().zip(r) {
+                            let w = dj * g;
+                            next[0] -= w * rm[0];
+                            next[1] -= w * rm[1];
                         }
+                        *zj = next;
                     }
-                    z[j] = next;
+                }
+                if nc == 0 {
+                    for (zj, e) in z.iter_mut().zip(&prop[..n]) {
+                        let (x, v) = (zj[0], zj[1]);
+                        *zj = [e[0] * x + e[1] * v, e[2] * x + e[3] * v];
+                    }
                 }
             }
             if t == l.t0 || t == self.t || memo.find(t).is_some() {
