@@ -256,20 +256,22 @@ impl ForceCollocation {
             y1[2 * n + c] = y0[2 * n + c] + h * (0..s).map(|i| self.scheme.b[i] * nodal[i]).sum::<f64>();
             y1[2 * n + nc + c] = y0[2 * n + nc + c] + h * (0..s).map(|i| self.scheme.b[i] * power[i]).sum::<f64>();
         }
-        // The end state: free motion plus every mode's response.
-        for j in 0..n {
-            let (mut x, mut v) = (end.q[j], end.qd[j]);
-            let base = (s * n + j) * mono;
+        // The end state: free motion plus every mode's response (mode by
+        // mode over slices: no index checks in the loops).
+        let r_end = &r[s * n * mono..(s + 1) * n * mono];
+        {
+            let (yq, yv) = y1.as_mut_slice()[..2 * n].split_at_mut(n);
+            yq.copy_from_slice(end.q.as_slice());
+            yv.copy_from_slice(end.qd.as_slice());
             for (c, alpha) in force.iter().enumerate() {
-                let dj = self.contacts[c].d[j];
-                for (m, a) in alpha.iter().enumerate() {
-                    let rr = r[base + m];
-                    x -= dj * a * rr[0];
-                    v -= dj * a * rr[1];
+                let d = self.contacts[c].d.as_slice();
+                for (((x, v), rj), &dj) in yq.iter_mut().zip(yv.iter_mut()).zip(r_end.chunks_exact(mono)).zip(d) {
+                    for (a, rr) in alpha.iter().zip(rj) {
+                        *x -= dj * a * rr[0];
+                        *v -= dj * a * rr[1];
+                    }
                 }
             }
-            y1[j] = x;
-            y1[n + j] = v;
         }
         // Error: the defect at the ends as `w_s(sigma) (D0 (1 - sigma) +
         // D1 sigma)`: the same `D` at both ends where the force is smooth
@@ -317,22 +319,30 @@ impl ForceCollocation {
         for c in 0..nc {
             self.scheme.monomials(&drive[c * s..(c + 1) * s], &mut fb[c * s..(c + 1) * s]);
         }
-        for j in 0..n {
+        // Per contact the load's coefficients (the defect and the
+        // feedback), then mode by mode its response at the end.
+        for c in 0..nc {
+            for m in 0..mono {
+                defect[c * mono + m] += if m < s { fb[c * s + m] } else { 0.0 };
+            }
+        }
+        let (y1q, y1v) = y1.as_slice()[..2 * n].split_at(n);
+        let (y0q, y0v) = y0.as_slice()[..2 * n].split_at(n);
+        for (j, rj) in r_end.chunks_exact(mono).enumerate() {
             coef.iter_mut().for_each(|x| *x = 0.0);
-            for c in 0..nc {
+            for (c, load) in defect.chunks_exact(mono).enumerate() {
                 let dj = self.contacts[c].d[j];
-                for m in 0..mono {
-                    coef[m] -= dj * (defect[c * mono + m] + if m < s { fb[c * s + m] } else { 0.0 });
+                for (k, l) in coef.iter_mut().zip(load) {
+                    *k -= dj * l;
                 }
             }
-            let base = (s * n + j) * mono;
             let (mut x, mut v) = (0.0, 0.0);
-            for m in 0..mono {
-                x += coef[m] * r[base + m][0];
-                v += coef[m] * r[base + m][1];
+            for (k, rr) in coef.iter().zip(rj) {
+                x += k * rr[0];
+                v += k * rr[1];
             }
-            let sq = tol * (self.options.q_scale + y1[j].abs().max(y0[j].abs()));
-            let sv = tol * (self.options.v_scale + y1[n + j].abs().max(y0[n + j].abs()));
+            let sq = tol * (self.options.q_scale + y1q[j].abs().max(y0q[j].abs()));
+            let sv = tol * (self.options.v_scale + y1v[j].abs().max(y0v[j].abs()));
             error = error.max(x.abs() / sq).max(v.abs() / sv);
         }
         if !error.is_finite() || !y1.iter().all(|x| x.is_finite()) {
