@@ -142,7 +142,7 @@ impl IntegratedSegment {
             }
             Evaluator::Affine(h, floor) => {
                 let n = self.phase.n;
-                h.offset + h.q.iter().zip(y.rows(0, n).iter()).map(|(a, b)| a * b).sum::<f64>() + floor
+                h.offset + h.q.iter().zip(&y.as_slice()[..n]).map(|(a, b)| a * b).sum::<f64>() + floor
             }
         }
     }
@@ -240,7 +240,8 @@ impl IntegratedSegment {
     /// the geometric ones.
     fn rate_in(&self, i: usize, y: &DVector<f64>) -> Option<f64> {
         let n = self.phase.n;
-        let dot = |a: &[f64], sign: f64| sign * a.iter().zip(y.rows(n, n).iter()).map(|(x, d)| x * d).sum::<f64>();
+        let rates = &y.as_slice()[n..2 * n];
+        let dot = |a: &[f64], sign: f64| sign * a.iter().zip(rates).map(|(x, d)| x * d).sum::<f64>();
         match &self.evaluators[i] {
             Evaluator::Affine(h, _) => Some(dot(h.q.as_slice(), 1.0)),
             Evaluator::Nonlinear { contact, watch } => {
