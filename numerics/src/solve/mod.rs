@@ -30,6 +30,7 @@ pub mod quadrature;
 pub mod radau;
 pub mod regula_falsi;
 pub mod switch;
+pub mod wide;
 
 /// An integrated phase (the rotating beam, a nonlinear stop's contact)
 /// restarts from the end of its last step after this many steps without a
