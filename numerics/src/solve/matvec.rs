@@ -67,7 +67,9 @@ mod tests {
     use super::*;
 
     /// The same bits as the plain column loop, for every shape up to 9 x 9
-    /// (every remainder of the blocking) and a start of either sign of 0.
+    /// (every remainder of the blocking) and from 16 to 23 and 65 rows
+    /// (the AVX copy, where the processor has it), and a start of either
+    /// sign of 0.
     #[test]
     fn blocked_sums_are_the_plain_loops_bits() {
         let mut seed = 0x9e3779b97f4a7c15u64;
@@ -77,8 +79,8 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
         };
-        for rows in 0..10 {
-            for cols in 0..10 {
+        for rows in (0..10).chain(WIDE_ROWS..WIDE_ROWS + 8).chain([65]) {
+            for cols in (0..10).chain([65]) {
                 let a: Vec<f64> = (0..rows * cols).map(|_| next() * 1e3f64.powf(next())).collect();
                 let x: Vec<f64> = (0..cols).map(|_| next()).collect();
                 for start in [0.0, -0.0] {

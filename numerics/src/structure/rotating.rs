@@ -771,6 +771,20 @@ mod tests {
         }
     }
 
+    /// The integrals' AVX copy (where the processor has it) gives the
+    /// baseline loop's bits.
+    #[test]
+    fn wide_integrals_are_the_baseline_bits() {
+        for n in [16, 33] {
+            let (a, b) = (DimensionlessIntegrals::new(n), DimensionlessIntegrals::integrate(n, 1));
+            let bits = |x: &DMatrix<f64>| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            for (x, y) in [(&a.m, &b.m), (&a.k, &b.k), (&a.d, &b.d), (&a.s, &b.s), (&a.c, &b.c)] {
+                assert_eq!(bits(x), bits(y), "{n} modes");
+            }
+            assert_eq!(a, b, "{n} modes");
+        }
+    }
+
     struct Lcg(u64);
     impl Lcg {
         fn next(&mut self) -> f64 {
