@@ -6,10 +6,10 @@
 //! bits do not depend on the blocking. Four columns are added per pass
 //! over `out`: the running sums stay in registers for four products
 //! instead of one, and the loads and stores of `out` (what bounds the
-//! plain loop) fall to a quarter. The rows are independent lanes, so the
-//! loop runs with AVX where the processor has it ([`super::wide`]; from
-//! [`WIDE_ROWS`] rows on): the
-//! same bits, four rows per instruction.
+//! plain loop) fall to a quarter. The rows are independent lanes, so
+//! from [`WIDE_ROWS`] rows on the loop runs compiled with AVX where the
+//! processor has it ([`super::wide`]): the same bits, four rows per
+//! instruction.
 
 /// `out = start + a x`, `a` column-major with `out.len()` rows and
 /// `x.len()` columns; each row summed in the order of `j`.
