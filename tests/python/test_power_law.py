@@ -117,10 +117,7 @@ def test_a_dropped_mass_matches_an_independent_integration(tmp_path, n, damping)
 
 def test_at_one_and_a_half_it_is_hertz_on_the_hertz_stop(tmp_path):
     """HertzStop's scene with its law written as a power law of n = 1.5: the
-    same contacts, tip motion within its tolerance (1e-10) of the gap at
-    every millisecond (the collocation's steps are adaptive: a rounding-level
-    difference in the force can move an accept or a reject; measured
-    2.8e-11)."""
+    same contacts, tip motion within 1e-12 of the gap at every millisecond."""
     hertz = json.loads((ROOT / "scenes" / "hertz_stop.json").read_text())
     power = json.loads(json.dumps(hertz))
     power["stops"][0]["law"] = {"type": "power_law", "n": 1.5, **{k: v for k, v in hertz["stops"][0]["law"].items() if k != "type"}}
@@ -134,7 +131,7 @@ def test_at_one_and_a_half_it_is_hertz_on_the_hertz_stop(tmp_path):
     gap = hertz["stops"][0]["gap"]
     assert out["hertz"][1] == out["power"][1] > 100, (out["hertz"][1], out["power"][1])
     worst = np.max(np.abs(out["hertz"][0] - out["power"][0]))
-    assert worst <= 1e-10 * gap, worst / gap
+    assert worst <= 1e-12 * gap, worst / gap
 
 
 def test_on_a_rotating_beams_surface_at_one_and_a_half_it_is_hertz(tmp_path):
