@@ -349,20 +349,30 @@ impl Scene {
 }
 
 /// The tolerance the force collocation is given for
-/// `solver.integration_tolerance = asked`: [`LOCAL_SHARE`] of it. The
-/// collocation bounds each step's error by its tolerance; the steps' errors
-/// add up over a contact (a hundred steps and more in HertzStop's long
-/// ones), so that a step given the whole tolerance left errors of 0.14 to
-/// 3.6 times it (HertzStop at 20 and 32 modes, 1e-3 to 1e-11 against the
-/// reference peer), and a third of it 0.04 to 1.1 times
-/// (docs/performance.md).
+/// `solver.integration_tolerance = asked`: the same down to 1e-9, a
+/// hundredth of it from 1e-10 on (blended between, `asked^3 / 1e-18`),
+/// no tighter than [`COLLOCATION_TOLERANCE_FLOOR`]. Its local error
+/// control keeps the error within a few times the tolerance down to 1e-9
+/// of the gap; below, the switches' placement adds up to 15 times it at
+/// 1e-10 and more further down (report/shared_peer): so that the error
+/// stays within 10 times the tolerance asked and no larger below 1e-10
+/// than at it.
 pub fn collocation_tolerance(asked: f64) -> f64 {
-    LOCAL_SHARE * asked
+    let tol = if asked >= 1e-9 {
+        asked
+    } else if asked >= 1e-10 {
+        asked * (asked / 1e-9).powi(2)
+    } else {
+        0.01 * asked
+    };
+    tol.max(COLLOCATION_TOLERANCE_FLOOR)
 }
 
-/// The share of `solver.integration_tolerance` one collocation step's
-/// error is held to.
-const LOCAL_SHARE: f64 = 0.3;
+/// The tightest tolerance the force collocation is given (from 2e-14
+/// asked down to the range's floor): about the rounding of its states.
+/// HertzStop's tightest runs come within 6.5e-12 (20 modes) and 4.6e-12
+/// (32) of the gap of the reference peer's.
+const COLLOCATION_TOLERANCE_FLOOR: f64 = 2e-16;
 
 /// The range of `solver.integration_tolerance`.
 pub const INTEGRATION_TOLERANCE_RANGE: Range = Range { min: 1e-14, max: 1e-2, min_open: false, max_open: false };

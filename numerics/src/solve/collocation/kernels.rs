@@ -2,7 +2,7 @@
 //! to the force monomials and its free kernels, and the contact
 //! coordinates' responses to the nodal forces.
 
-use std::sync::{Arc, OnceLock};
+use std::sync::Arc;
 
 use nalgebra::DMatrix;
 
@@ -12,19 +12,6 @@ use super::ForceCollocation;
 
 /// Intervals of the switch locator's grid (its samples).
 pub(super) const GRID: usize = SAMPLES;
-/// The grid's interior points in a step, `k / GRID`: where the error
-/// estimate samples a defect besides the nodes and the ends (with the
-/// ends one more than the nodes: see [`super::scheme::Scheme`]'s
-/// `defect_weights`).
-pub(super) const INTERIOR: [f64; GRID - 1] = {
-    let mut points = [0.0; GRID - 1];
-    let mut k = 0;
-    while k < GRID - 1 {
-        points[k] = (k + 1) as f64 / GRID as f64;
-        k += 1;
-    }
-    points
-};
 /// Kernel sets kept.
 const KERNEL_SETS: usize = 96;
 pub(super) use super::super::step_ladder as ladder;
@@ -46,43 +33,6 @@ pub struct StepKernels {
     pub(super) grid_responses: Vec<[f64; 2]>,
     /// `(Ec, Es)` at `k h / GRID`: `[(k - 1) * n + j]`, `k = 1..=GRID`.
     pub(super) grid_free: Vec<(f64, f64)>,
-    /// With the grid: `[(k * n + j) * s + m]`, mode `j`'s response at
-    /// [`INTERIOR`]`[k]` to `sigma^m` from rest, `m < s` (computed when
-    /// a step near a corner first asks).
-    interior: OnceLock<Vec<[f64; 2]>>,
-}
-
-impl StepKernels {
-    /// Whether the set has the grid (and with it the interior points).
-    pub(super) fn has_grid(&self) -> bool {
-        !self.grid_free.is_empty()
-    }
-
-    /// The free kernels at [`INTERIOR`]`[k]` (a set with the grid).
-    pub(super) fn interior_free(&self, k: usize, n: usize) -> &[(f64, f64)] {
-        &self.grid_free[k * n..(k + 1) * n]
-    }
-
-    /// The responses at the interior points (a set with the grid).
-    pub(super) fn interior_responses(&self, oscillators: &[crate::solve::Oscillator], s: usize) -> &[[f64; 2]] {
-        self.interior.get_or_init(|| {
-            let n = oscillators.len();
-            let mut out = vec![[0.0; 2]; INTERIOR.len() * n * s];
-            let mut phis = [[0.0; 2]; 8];
-            for (k, sigma) in INTERIOR.iter().enumerate() {
-                let tau = sigma * self.h;
-                for (j, osc) in oscillators.iter().enumerate() {
-                    phi_columns(osc, tau, &mut phis[..s + 1]);
-                    let mut factor = tau;
-                    for m in 0..s {
-                        out[(k * n + j) * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
-                        factor *= sigma * (m + 1) as f64;
-                    }
-                }
-            }
-            out
-        })
-    }
 }
 
 /// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
@@ -100,39 +50,6 @@ pub(super) struct Projected {
     /// To the nodal forces, at the nodes: `[(c, i), (e, k)]`.
     pub(super) mp: DMatrix<f64>,
     pub(super) mv: DMatrix<f64>,
-    /// To the force monomials at [`INTERIOR`]:
-    /// `[((c * nc + e) * INTERIOR.len() + k) * s + m]` (when first asked).
-    interior: OnceLock<Vec<[f64; 2]>>,
-}
-
-impl Projected {
-    /// The contact coordinates' responses at the interior points, from
-    /// `kernels` (of this size, with the grid).
-    pub(super) fn interior(&self, collocation: &ForceCollocation, kernels: &StepKernels) -> &[[f64; 2]] {
-        self.interior.get_or_init(|| {
-            let (n, s, nc) = (collocation.n, collocation.scheme.s, collocation.contacts.len());
-            let ni = INTERIOR.len();
-            let r = kernels.interior_responses(&collocation.dynamics.oscillators, s);
-            let mut out = vec![[0.0; 2]; nc * nc * ni * s];
-            for c in 0..nc {
-                for e in 0..nc {
-                    let dd = &collocation.dd[(c * nc + e) * n..(c * nc + e + 1) * n];
-                    for k in 0..ni {
-                        for m in 0..s {
-                            let (mut x, mut v) = (0.0, 0.0);
-                            for (j, w) in dd.iter().enumerate() {
-                                let rr = r[(k * n + j) * s + m];
-                                x -= w * rr[0];
-                                v -= w * rr[1];
-                            }
-                            out[((c * nc + e) * ni + k) * s + m] = [x, v];
-                        }
-                    }
-                }
-            }
-            out
-        })
-    }
 }
 
 impl ForceCollocation {
@@ -188,7 +105,7 @@ impl ForceCollocation {
                 }
             }
         }
-        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free, interior: OnceLock::new() });
+        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free });
         if grid {
             let mut cache = self.kernels.borrow_mut();
             cache.retain(|k| k.h != h);
@@ -254,7 +171,7 @@ impl ForceCollocation {
                 }
             }
         }
-        let projected = Arc::new(Projected { h, sm, mp, mv, interior: OnceLock::new() });
+        let projected = Arc::new(Projected { h, sm, mp, mv });
         if cached {
             let mut cache = self.projections.borrow_mut();
             if cache.len() >= KERNEL_SETS {

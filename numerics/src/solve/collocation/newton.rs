@@ -6,7 +6,6 @@ use nalgebra::DVector;
 use crate::solve::free::{FreeSegment, Projection};
 use crate::solve::lu::{Lu, Order};
 use crate::solve::modal_state::ModalState;
-use super::kernels::INTERIOR;
 use super::scheme::horner;
 use super::{ForceCollocation, NewtonFailure, PointForces, Step, STAGES};
 
@@ -14,13 +13,6 @@ use super::{ForceCollocation, NewtonFailure, PointForces, Step, STAGES};
 /// coordinate by less than this fraction of the tolerance.
 const NEWTON_FRACTION: f64 = 1e-3;
 const NEWTON_ITERATIONS: usize = 12;
-/// A step whose force falls below this fraction of its largest value
-/// (at the nodes or the ends) may lie near a corner, and its estimate
-/// reads the defect between the nodes too. Above it the corner lies a
-/// step or more away, and the nodes' rule misses no impulse of note:
-/// sampling every step cost 1 to 6 % more work over HertzStop (20 and 32
-/// modes, tolerances 1e-4 to 1e-10) for errors within the same spread.
-const NEAR_CORNER: f64 = 0.5;
 /// A Newton correction this many ulps of a contact coordinate is its rounding.
 const ROUNDING: f64 = 8.0 * f64::EPSILON;
 
@@ -38,9 +30,6 @@ pub(super) struct Scratch {
     defect: Vec<f64>,
     drive: Vec<f64>,
     fb: Vec<f64>,
-    /// The free motion's contact coordinates and rates at [`INTERIOR`]:
-    /// `[(c * INTERIOR.len() + k) * 2]`.
-    interior: Vec<f64>,
     /// The step's start and the free motion at its points.
     start: ModalState,
     end: ModalState,
@@ -127,7 +116,7 @@ impl ForceCollocation {
         let kernels = self.kernels_for(h, cached);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
-        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, interior, start, end, projections, spare } = &mut *guard;
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, projections, spare } = &mut *guard;
         if start.q.len() != n {
             (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
         }
@@ -150,11 +139,11 @@ impl ForceCollocation {
         reset(pf, nc * (s + 1));
         reset(pdf, nc * (s + 1));
         projections.resize_with(nc, Default::default);
-        let free_projected = (0..nc).all(|c| free.projected(&self.dynamics, self.contacts[c].d.as_slice(), &mut projections[c]));
+        let projected = (0..nc).all(|c| free.projected(&self.dynamics, self.contacts[c].d.as_slice(), &mut projections[c]));
         for i in 0..=s {
             let tau = if i < s { self.scheme.c[i] * h } else { h };
             let point_kernels = &kernels.free[i * n..(i + 1) * n];
-            if i < s && free_projected {
+            if i < s && projected {
                 for c in 0..nc {
                     let (p, pd) = projections[c].at(&self.dynamics, tau, point_kernels);
                     pf[c * (s + 1) + i] = p - self.contacts[c].gap;
@@ -288,24 +277,9 @@ impl ForceCollocation {
         // D1 sigma)`: the same `D` at both ends where the force is smooth
         // (the superconvergent estimate), different ones where it is not
         // (an onset's `p^1.5`), whose response the estimate then carries.
-        // That model's integral vanishes (Gauss orthogonality); the
-        // defect's need not near a corner (a step ending just short of a
-        // separation, the first steps after an onset), where the impulse
-        // the nodes' rule misses is the step's error in every mode: in
-        // HertzStop up to 3e4 times what the model estimated. Where the
-        // force falls below [`NEAR_CORNER`] of its largest value over the
-        // step, the defect's integral is read from its values at the
-        // grid's interior points too (the rule on the nodes, the ends and
-        // those points, exact to degree `2 s`), and the response to it as
-        // a uniform load is added to the model's. (A piece landing on a
-        // given time has no grid: it lies inside a step or on a corner
-        // the pieces before it graded.)
         let w_end = horner(&self.scheme.node_poly, 1.0);
         let w_start = horner(&self.scheme.node_poly, 0.0);
-        let weights = &self.scheme.defect_weights;
-        let ni = if kernels.has_grid() { INTERIOR.len() } else { 0 };
-        let mut sampled = false;
-        reset(defect, 2 * nc * mono);
+        reset(defect, nc * mono);
         for c in 0..nc {
             if forces.held(c) {
                 // A reaction has no law to miss.
@@ -313,110 +287,59 @@ impl ForceCollocation {
             }
             let (p1, pd1) = self.coordinate(c, &y1);
             let (p0, pd0) = self.coordinate(c, y0);
-            let e1 = forces.force(c, p1, pd1).0 - horner(&force[c], 1.0);
-            let e0 = forces.force(c, p0, pd0).0 - horner(&force[c], 0.0);
-            let (d1, d0) = (e1 / w_end, e0 / w_start);
+            let d1 = (forces.force(c, p1, pd1).0 - horner(&force[c], 1.0)) / w_end;
+            let d0 = (forces.force(c, p0, pd0).0 - horner(&force[c], 0.0)) / w_start;
             for (m, w) in self.scheme.node_poly.iter().enumerate() {
                 defect[c * mono + m] += d0 * w;
                 defect[c * mono + m + 1] += (d1 - d0) * w;
             }
-            let (f0, f1) = (e0 + horner(&force[c], 0.0), e1 + horner(&force[c], 1.0));
-            let nodal = &f.as_slice()[c * s..(c + 1) * s];
-            let low = nodal.iter().fold(f0.min(f1), |m, x| m.min(*x));
-            let high = nodal.iter().fold(f0.max(f1), |m, x| m.max(*x));
-            if ni == 0 || low > NEAR_CORNER * high {
-                continue;
-            }
-            if !sampled {
-                // The free motion at the interior points (`end` is free
-                // now: the end state is in `y1`).
-                sampled = true;
-                reset(interior, 2 * nc * ni);
-                for (k, x) in INTERIOR.iter().enumerate() {
-                    let point_kernels = kernels.interior_free(k, n);
-                    if !free_projected {
-                        free.state_with_kernels(&self.dynamics, t0 + x * h, point_kernels, end);
-                    }
-                    for (e, contact) in self.contacts.iter().enumerate() {
-                        let (p, pd) = if free_projected { projections[e].at(&self.dynamics, x * h, point_kernels) } else { (contact.d.dot(&end.q), contact.d.dot(&end.qd)) };
-                        interior[2 * (e * ni + k)] = p - contact.gap;
-                        interior[2 * (e * ni + k) + 1] = pd;
-                    }
-                }
-            }
-            let responses = projected.interior(self, &kernels);
-            // A step from an onset starts on the surface, where the law
-            // gives the force outside it: a force that jumps as the point
-            // enters (a linear damping's `C v0`) is no defect of the step.
-            let entering = p0 <= 0.0 && pd0 > 0.0;
-            let mut integral = weights[0] * if entering { 0.0 } else { e0 } + weights[ni + 1] * e1;
-            for (k, x) in INTERIOR.iter().enumerate() {
-                let (mut pk, mut pdk) = (interior[2 * (c * ni + k)], interior[2 * (c * ni + k) + 1]);
-                for (e, alpha) in force.iter().enumerate() {
-                    for (a, r) in alpha.iter().zip(&responses[((c * nc + e) * ni + k) * s..]) {
-                        pk += a * r[0];
-                        pdk += a * r[1];
-                    }
-                }
-                integral += weights[k + 1] * (forces.force(c, pk, pdk).0 - horner(&force[c], *x));
-            }
-            defect[(nc + c) * mono] = integral;
         }
-        // The nodes' response to each load (the defect's model, the
-        // uniform load), fed back through the contacts.
-        let nl = nc * mono;
-        let sets = if sampled { 2 } else { 1 };
-        reset(drive, 2 * ns);
-        reset(fb, 2 * ns);
-        for (set, loads) in defect.chunks_exact_mut(nl).take(sets).enumerate() {
-            let drive = &mut drive[set * ns..(set + 1) * ns];
-            for c in 0..nc {
-                for i in 0..s {
-                    let row = c * s + i;
-                    let (dp, dpd) = (law[row].1, law[row].2);
-                    let (mut x, mut v) = (0.0, 0.0);
-                    for (e, poly) in loads.chunks_exact(mono).enumerate() {
-                        for (m, w) in poly.iter().enumerate() {
-                            let smv = sm[((c * nc + e) * (s + 1) + i) * mono + m];
-                            x += w * smv[0];
-                            v += w * smv[1];
-                        }
+        // The nodes' response to the defect, fed back through the contacts.
+        reset(drive, ns);
+        for c in 0..nc {
+            for i in 0..s {
+                let row = c * s + i;
+                let (dp, dpd) = (law[row].1, law[row].2);
+                let (mut x, mut v) = (0.0, 0.0);
+                for (e, poly) in defect.chunks_exact(mono).enumerate() {
+                    for (m, w) in poly.iter().enumerate() {
+                        let smv = sm[((c * nc + e) * (s + 1) + i) * mono + m];
+                        x += w * smv[0];
+                        v += w * smv[1];
                     }
-                    // A held contact's reaction cancels the defect's push on it.
-                    drive[row] = if forces.held(c) { -v / mv[(row, row)] } else { dp * x + dpd * v };
                 }
-            }
-            lu.solve(drive);
-            // Per contact the load's coefficients: the defect and the feedback.
-            let fb = &mut fb[set * ns..(set + 1) * ns];
-            for c in 0..nc {
-                self.scheme.monomials(&drive[c * s..(c + 1) * s], &mut fb[c * s..(c + 1) * s]);
-                for m in 0..s {
-                    loads[c * mono + m] += fb[c * s + m];
-                }
+                // A held contact's reaction cancels the defect's push on it.
+                drive[row] = if forces.held(c) { -v / mv[(row, row)] } else { dp * x + dpd * v };
             }
         }
-        // Mode by mode the loads' responses at the end, added.
+        lu.solve(drive);
         let mut error: f64 = 0.0;
+        let mut coef = [0.0; STAGES + 2];
+        reset(fb, ns);
+        for c in 0..nc {
+            self.scheme.monomials(&drive[c * s..(c + 1) * s], &mut fb[c * s..(c + 1) * s]);
+        }
+        // Per contact the load's coefficients (the defect and the
+        // feedback), then mode by mode its response at the end.
+        for c in 0..nc {
+            for m in 0..mono {
+                defect[c * mono + m] += if m < s { fb[c * s + m] } else { 0.0 };
+            }
+        }
         let (y1q, y1v) = y1.as_slice()[..2 * n].split_at(n);
         let (y0q, y0v) = y0.as_slice()[..2 * n].split_at(n);
         for (j, rj) in r_end.chunks_exact(mono).enumerate() {
+            coef.iter_mut().for_each(|x| *x = 0.0);
+            for (c, load) in defect.chunks_exact(mono).enumerate() {
+                let dj = self.contacts[c].d[j];
+                for (k, l) in coef.iter_mut().zip(load) {
+                    *k -= dj * l;
+                }
+            }
             let (mut x, mut v) = (0.0, 0.0);
-            for loads in defect.chunks_exact(nl).take(sets) {
-                let mut coef = [0.0; STAGES + 2];
-                for (c, load) in loads.chunks_exact(mono).enumerate() {
-                    let dj = self.contacts[c].d[j];
-                    for (k, l) in coef.iter_mut().zip(load) {
-                        *k -= dj * l;
-                    }
-                }
-                let (mut xs, mut vs) = (0.0, 0.0);
-                for (k, rr) in coef.iter().zip(rj) {
-                    xs += k * rr[0];
-                    vs += k * rr[1];
-                }
-                x += xs.abs();
-                v += vs.abs();
+            for (k, rr) in coef.iter().zip(rj) {
+                x += k * rr[0];
+                v += k * rr[1];
             }
             let sq = tol * (self.options.q_scale + y1q[j].abs().max(y0q[j].abs()));
             let sv = tol * (self.options.v_scale + y1v[j].abs().max(y0v[j].abs()));

@@ -3,8 +3,6 @@
 
 use nalgebra::DMatrix;
 
-use super::kernels::INTERIOR;
-
 /// Gauss-Legendre nodes on `[0, 1]` and the polynomials built on them.
 #[derive(Clone, Debug)]
 pub(super) struct Scheme {
@@ -16,13 +14,6 @@ pub(super) struct Scheme {
     pub(super) vinv: Vec<f64>,
     /// Monomial coefficients of `w_s(sigma) = prod (sigma - c_i)`.
     pub(super) node_poly: Vec<f64>,
-    /// Weights at `0`, [`INTERIOR`] and `1` of the interpolatory rule on
-    /// the nodes with those points: the integral of a defect, which
-    /// vanishes at the nodes. With the ends, the interior points must be
-    /// at least one more than the nodes (`s + 1` points besides them):
-    /// any rule on at most `2 s` points that includes the Gauss nodes is
-    /// theirs, and gives a defect that vanishes there no integral.
-    pub(super) defect_weights: [f64; 2 + INTERIOR.len()],
 }
 
 impl Scheme {
@@ -58,8 +49,7 @@ impl Scheme {
             }
             node_poly = next;
         }
-        let defect_weights = defect_weights(&c);
-        Scheme { s, c, b, vinv, node_poly, defect_weights }
+        Scheme { s, c, b, vinv, node_poly }
     }
 
     /// Monomial coefficients `alpha[m] = sum_k vinv[m][k] values[k]`.
@@ -69,21 +59,6 @@ impl Scheme {
             *o = (0..s).map(|k| self.vinv[m * s + k] * values[k]).sum();
         }
     }
-}
-
-/// The weights at `0`, [`INTERIOR`] and `1` of the interpolatory
-/// quadrature on `nodes` and those points (the moments solved for all
-/// weights).
-fn defect_weights(nodes: &[f64]) -> [f64; 2 + INTERIOR.len()] {
-    let mut points = vec![0.0];
-    points.extend_from_slice(&INTERIOR);
-    points.push(1.0);
-    points.extend_from_slice(nodes);
-    let k = points.len();
-    let v = DMatrix::from_fn(k, k, |m, i| points[i].powi(m as i32));
-    let moments = nalgebra::DVector::from_fn(k, |m, _| 1.0 / (m + 1) as f64);
-    let w = v.lu().solve(&moments).expect("distinct points");
-    std::array::from_fn(|i| w[i])
 }
 
 pub(super) fn horner(coeffs: &[f64], x: f64) -> f64 {
@@ -111,33 +86,4 @@ pub(super) fn taylor_shift(p: &[f64], sigma: f64, ratio: f64, out: &mut [f64]) {
 /// `int_0^sigma` of the polynomial with monomial coefficients `coeffs`.
 pub(super) fn integral(coeffs: &[f64], sigma: f64) -> f64 {
     coeffs.iter().enumerate().rev().fold(0.0, |acc, (m, a)| acc * sigma + a / (m + 1) as f64) * sigma
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The defect rule integrates `w_s(sigma) sigma^k` (zero at the nodes)
-    /// exactly up to degree `2 s`: zero for `k < s` (Gauss orthogonality),
-    /// the integral the nodes' own rule misses for `k = s`.
-    #[test]
-    fn the_defect_rule_integrates_what_vanishes_at_the_nodes() {
-        let scheme = Scheme::gauss(super::super::STAGES);
-        let s = scheme.s;
-        let mut points = vec![0.0];
-        points.extend_from_slice(&INTERIOR);
-        points.push(1.0);
-        for k in 0..=s {
-            let mut poly = vec![0.0; k];
-            poly.extend_from_slice(&scheme.node_poly);
-            let rule: f64 = points.iter().zip(&scheme.defect_weights).map(|(x, w)| w * horner(&poly, *x)).sum();
-            let exact = integral(&poly, 1.0);
-            assert!((rule - exact).abs() < 1e-15, "sigma^{k} w_s: {rule:e} against {exact:e}");
-            if k < s {
-                assert!(exact.abs() < 1e-16, "{exact:e}");
-            } else {
-                assert!(exact.abs() > 1e-6, "{exact:e}");
-            }
-        }
-    }
 }
