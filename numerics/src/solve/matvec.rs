@@ -17,7 +17,7 @@
 /// `out = start + a x`, `a` column-major with `out.len()` rows and
 /// `x.len()` columns; each row summed in the order of `j`.
 pub fn mat_vec(a: &[f64], x: &[f64], out: &mut [f64], start: f64) {
-    if let Some(()) = mat_vec_short(a, x, out, start) {
+    if mat_vec_short(a, x, out, start) {
         return;
     }
     #[cfg(target_arch = "x86_64")]
@@ -43,21 +43,20 @@ const WIDE_ROWS: usize = 16;
 /// (the rows a constant, unrolled: one pass over `a`, none over `out`).
 const SHORT_ROWS: usize = WIDE_ROWS;
 
-/// `mat_vec` with the rows a constant: `None` from [`SHORT_ROWS`] rows on.
-fn mat_vec_short(a: &[f64], x: &[f64], out: &mut [f64], start: f64) -> Option<()> {
-    if out.len() >= SHORT_ROWS {
-        return None;
-    }
+/// `mat_vec` with the rows a constant, from 1 to `SHORT_ROWS - 1` rows:
+/// whether it ran.
+fn mat_vec_short(a: &[f64], x: &[f64], out: &mut [f64], start: f64) -> bool {
     macro_rules! rows {
         ($($r:literal)*) => {
             match out.len() {
                 $($r => mat_vec_rows::<$r>(a, x, out, start),)*
-                _ => return None,
+                _ => return false,
             }
         };
     }
+    const _: () = assert!(SHORT_ROWS == 16, "one arm per row count below SHORT_ROWS");
     rows!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
-    Some(())
+    true
 }
 
 #[inline(always)]
