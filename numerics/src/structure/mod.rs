@@ -4,6 +4,7 @@
 pub mod beam;
 pub mod chain;
 pub mod rotating;
+pub mod table;
 pub mod tip_spring;
 
 pub use beam::{Beam, Support};
