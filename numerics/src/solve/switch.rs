@@ -54,6 +54,12 @@ pub fn is_inner_sample(t0: f64, t1: f64, t: f64) -> bool {
     (1..SAMPLES).any(|k| sample(t0, t1, k) == t)
 }
 
+/// Sample `k` of `[t0, t1]` (`k = SAMPLES` is `t1`), as [`first_switch`]
+/// forms it: a dense output may prepare its values there.
+pub fn sample_time(t0: f64, t1: f64, k: usize) -> f64 {
+    sample(t0, t1, k)
+}
+
 /// Sample `k` of `[t0, t1]` (`k = SAMPLES` is `t1`).
 fn sample(t0: f64, t1: f64, k: usize) -> f64 {
     if k == SAMPLES {

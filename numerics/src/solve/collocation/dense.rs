@@ -3,9 +3,11 @@
 
 use nalgebra::DVector;
 
+use crate::solve::free::Projection;
 use crate::solve::modal_state::ModalState;
 use crate::solve::phi::phi_columns;
-use super::kernels::GRID;
+use crate::solve::switch::sample_time;
+use super::kernels::{GRID, INNER};
 use super::scheme::{integral, taylor_shift};
 use super::{ForceCollocation, Step, STAGES};
 
@@ -47,7 +49,122 @@ impl Memo {
     }
 }
 
+/// The watched coordinates at the last step's samples inside it.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Samples {
+    /// The step they are of (its start and size).
+    step: Option<(f64, f64)>,
+    /// The samples' times, as the switch locator forms them.
+    times: [f64; INNER],
+    /// The free motion projected on each watched direction (not
+    /// `projected` near a resonance of a harmonic load, where it has no
+    /// fixed amplitude).
+    projections: Vec<Projection>,
+    projected: bool,
+    /// Per sample, every direction's `(c . q, c . q')` once asked for.
+    values: Vec<Vec<(f64, f64)>>,
+    /// Per step size (the ladder's recur), the contacts' responses to the
+    /// force monomials in each direction at each sample:
+    /// `[((k * nd + i) * nc + e) * s + m]`, the most recent last.
+    responses: Vec<(f64, Vec<[f64; 2]>)>,
+}
+
+/// Step sizes whose directional responses [`Samples`] keeps.
+const SAMPLE_SIZES: usize = 48;
+
 impl ForceCollocation {
+    /// The directions `c` whose coordinates `c . q` (and rates) the
+    /// switch locator reads from [`Self::sampled_coordinates`].
+    pub fn watch_directions(&mut self, directions: Vec<DVector<f64>>) {
+        // The weights of the contacts' modal responses in each direction.
+        self.watched_weights = directions
+            .iter()
+            .flat_map(|c| self.contacts.iter().map(move |contact| c.iter().zip(contact.d.iter()).map(|(cj, dj)| cj * dj).collect()))
+            .collect();
+        self.watched = directions;
+        *self.samples.get_mut() = Samples::default();
+    }
+
+    /// Every watched direction's `(c . q, c . q')` at `t` into `out`, when
+    /// `t` is one of the switch locator's samples strictly inside the last
+    /// step (a point of [`grid`] or the midpoint of two neighbouring ones,
+    /// formed as the locator forms them); `false` otherwise. The dense
+    /// output's motion projected: the free motion through its projection
+    /// on `c` and the contacts' responses at that fraction of the step
+    /// (kept with the step size's kernels), in `O(N)` per direction and
+    /// contact where the state costs `O(N s)` and the states' memo.
+    pub fn sampled_coordinates(&self, t: f64, out: &mut Vec<(f64, f64)>) -> bool {
+        let Some(l) = self.last.as_ref() else { return false };
+        if self.watched.is_empty() {
+            return false;
+        }
+        let mut samples = self.samples.borrow_mut();
+        if samples.step != Some((l.t0, l.h)) {
+            let t1 = l.t0 + l.h;
+            let mut previous = l.t0;
+            for k in 1..=GRID {
+                let point = sample_time(l.t0, t1, k);
+                samples.times[2 * k - 2] = 0.5 * (previous + point);
+                if k < GRID {
+                    samples.times[2 * k - 1] = point;
+                }
+                previous = point;
+            }
+            let Samples { projections, .. } = &mut *samples;
+            projections.resize_with(self.watched.len(), Projection::default);
+            samples.projected = self.watched.iter().zip(samples.projections.iter_mut()).all(|(c, p)| l.free.projected(&self.dynamics, c.as_slice(), p));
+            samples.values.iter_mut().for_each(Vec::clear);
+            samples.values.resize(INNER, Vec::new());
+            samples.step = Some((l.t0, l.h));
+        }
+        let Some(k) = samples.times.iter().position(|&s| s == t) else { return false };
+        if !samples.projected {
+            return false;
+        }
+        if samples.values[k].is_empty() {
+            let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
+            let kernels = self.kernels_for(l.h, true);
+            let free = &kernels.sample_free[k * n..(k + 1) * n];
+            let Samples { projections, values, responses, .. } = &mut *samples;
+            let at = match responses.iter().rposition(|r| r.0 == l.h) {
+                Some(i) => i,
+                None => {
+                    // `sum_j c_j d_j R_jm` at every sample, for this size.
+                    let mut table = vec![[0.0; 2]; INNER * nd * nc * s];
+                    for (kk, block) in table.chunks_exact_mut(nd * nc * s).enumerate() {
+                        let modal = &kernels.sample_responses[kk * n * s..(kk + 1) * n * s];
+                        for (weights, out) in self.watched_weights.iter().zip(block.chunks_exact_mut(s)) {
+                            for (&w, r) in weights.iter().zip(modal.chunks_exact(s)) {
+                                for (o, rm) in out.iter_mut().zip(r) {
+                                    o[0] += w * rm[0];
+                                    o[1] += w * rm[1];
+                                }
+                            }
+                        }
+                    }
+                    if responses.len() == SAMPLE_SIZES {
+                        responses.remove(0);
+                    }
+                    responses.push((l.h, table));
+                    responses.len() - 1
+                }
+            };
+            let table = &responses[at].1[k * nd * nc * s..(k + 1) * nd * nc * s];
+            for (projection, per_contact) in projections.iter().zip(table.chunks_exact(nc * s)) {
+                let (mut x, mut v) = projection.at(&self.dynamics, t - l.t0, free);
+                for (alpha, r) in l.force.iter().zip(per_contact.chunks_exact(s)) {
+                    for (a, rm) in alpha.iter().zip(r) {
+                        x -= a * rm[0];
+                        v -= a * rm[1];
+                    }
+                }
+                values[k].push((x, v));
+            }
+        }
+        out.clone_from(&samples.values[k]);
+        true
+    }
+
     /// The integrated state at `t` in the last step under its
     /// polynomials (the step's start before the first step: `None`).
     pub fn dense(&self, t: f64, out: &mut DVector<f64>) -> Option<()> {

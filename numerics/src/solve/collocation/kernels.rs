@@ -33,7 +33,17 @@ pub struct StepKernels {
     pub(super) grid_responses: Vec<[f64; 2]>,
     /// `(Ec, Es)` at `k h / GRID`: `[(k - 1) * n + j]`, `k = 1..=GRID`.
     pub(super) grid_free: Vec<(f64, f64)>,
+    /// At the switch locator's samples inside the step (`(k + 1) h /
+    /// (2 GRID)`, `k < INNER`: the grid's inner points and the grid
+    /// intervals' midpoints): `(Ec, Es)` at `[k * n + j]`, and the
+    /// responses to `sigma^m` at `[(k * n + j) * s + m]`.
+    pub(super) sample_free: Vec<(f64, f64)>,
+    pub(super) sample_responses: Vec<[f64; 2]>,
 }
+
+/// The switch locator's samples strictly inside a step: the grid's inner
+/// points and the grid intervals' midpoints.
+pub(super) const INNER: usize = 2 * GRID - 1;
 
 /// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
 fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
@@ -86,7 +96,24 @@ impl ForceCollocation {
             }
         }
         let (mut grid_propagator, mut grid_responses, mut grid_free) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut sample_free, mut sample_responses) = (Vec::new(), Vec::new());
         if grid {
+            sample_free = vec![(0.0, 0.0); INNER * n];
+            sample_responses = vec![[0.0; 2]; INNER * n * s];
+            for k in 0..INNER {
+                let tau = (k + 1) as f64 * h / (2 * GRID) as f64;
+                let sigma = tau / h;
+                for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
+                    phi_columns(osc, tau, &mut phis[..s + 1]);
+                    sample_free[k * n + j] = kernels_of(phis[0], osc.a);
+                    // m! sigma^m tau phi_{m+1}, as the dense output's.
+                    let mut factor = tau;
+                    for m in 0..s {
+                        sample_responses[(k * n + j) * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+                        factor *= sigma * (m + 1) as f64;
+                    }
+                }
+            }
             let delta = h / GRID as f64;
             grid_propagator = vec![[0.0; 4]; n];
             grid_responses = vec![[0.0; 2]; n * s];
@@ -105,7 +132,7 @@ impl ForceCollocation {
                 }
             }
         }
-        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free });
+        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free, sample_free, sample_responses });
         if grid {
             let mut cache = self.kernels.borrow_mut();
             cache.retain(|k| k.h != h);

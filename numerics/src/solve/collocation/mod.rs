@@ -30,8 +30,12 @@
 //!
 //! **Cost.** Step sizes come from a ladder of `2^(1/4)`, so that steps of
 //! one size share their kernels (the responses to the force monomials and
-//! the free kernels at the nodes, kept per size); the switch locator's
-//! samples are marched from one propagator per mode.
+//! the free kernels at the nodes, kept per size); the switch locator
+//! reads its samples inside a step as the watched coordinates alone (the
+//! free motion's projection and the contacts' responses at that fraction
+//! of the step, [`ForceCollocation::sampled_coordinates`]), or, when it
+//! needs whole states (a held stop's reaction), marches them from one
+//! propagator per mode ([`ForceCollocation::prefill`]).
 //!
 //! The dense output is the exact motion under the step's polynomials; at
 //! an interior time it has stage order, so a state the outputs read is
@@ -49,7 +53,7 @@ mod newton;
 mod scheme;
 mod sensitivity;
 
-use dense::Memo;
+use dense::{Memo, Samples};
 pub use kernels::StepKernels;
 use kernels::{ladder, Projected};
 use newton::Scratch;
@@ -156,6 +160,12 @@ pub struct ForceCollocation {
     /// States the dense output gave in the last step, by time (the switch
     /// locator asks for values and rates at the same sample points).
     memo: std::cell::RefCell<Memo>,
+    /// The coordinates the switch locator reads (`c . q` along each) and
+    /// their values at the last step's samples ([`Self::sampled_coordinates`]).
+    watched: Vec<DVector<f64>>,
+    /// `c_j d_j` per watched direction `c` and contact `d`: `[c * nc + d]`.
+    watched_weights: Vec<Vec<f64>>,
+    samples: std::cell::RefCell<Samples>,
     /// The kernels of the step sizes used lately (steps take sizes from a
     /// ladder, so that neighbouring steps share them).
     kernels: std::cell::RefCell<Vec<Arc<StepKernels>>>,
@@ -190,7 +200,7 @@ impl ForceCollocation {
         }
         let h = options.h_init.min(options.h_max);
         let amax = contacts.iter().map(|c| c.d.amax()).collect();
-        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
+        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
     }
 
     /// Steps attempted so far, of every kind.
@@ -438,6 +448,46 @@ mod tests {
             assert!((at[k] - want_mid[k]).abs() < 1e-6 * scale, "dense, component {k}: {} vs {}", at[k], want_mid[k]);
         }
         assert!(col.accepted < 200, "{} steps", col.accepted);
+    }
+
+    /// The watched coordinates at the switch locator's samples against
+    /// the dense output's whole state there, step by step (two
+    /// directions: the contact's and another), and nothing off them.
+    #[test]
+    fn sampled_coordinates_are_the_dense_outputs() {
+        let oscillators = vec![Oscillator::new(3.0, 0.02), Oscillator::new(40.0, 0.02), Oscillator::new(400.0, 0.05)];
+        let mut forcing = ModalForcing::zero(3);
+        forcing.constant = DVector::from_vec(vec![60.0, -48.0, 36.0]);
+        forcing.add_harmonic(5.0, DVector::from_vec(vec![crate::solve::C64::new(1.0, 0.0), crate::solve::C64::new(0.0, 0.3), crate::solve::C64::new(0.1, 0.0)]));
+        let dynamics = FreeDynamics::new(oscillators, forcing);
+        let d = DVector::from_vec(vec![1.0, -0.8, 0.6]);
+        let other = DVector::from_vec(vec![0.3, 0.0, -2.0]);
+        let law = Hertzian { k: 3e4, c: 0.3 };
+        let y0 = DVector::from_vec(vec![0.01, 0.0, 0.0, 0.5, 0.1, -0.2, 0.0, 0.0]);
+        let options = CollocationOptions { tol: 1e-8, q_scale: 0.01, v_scale: 0.5, h_init: 1e-4, h_max: 0.05, corner_fraction: 1e-8f64.powf(2.0 / 7.0) };
+        let mut col = ForceCollocation::new(dynamics, vec![PointContact { d: d.clone(), gap: 0.0 }], 0.0, y0, options);
+        col.watch_directions(vec![d.clone(), other.clone()]);
+        let (mut y, mut got) = (DVector::zeros(8), Vec::new());
+        let (mut compared, mut worst) = (0, 0.0f64);
+        while col.t() < 0.2 {
+            let (t0, t1) = col.step(&law).unwrap();
+            let g = crate::solve::switch::grid(t0, t1);
+            let mids: Vec<f64> = g.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+            for &t in g[1..g.len() - 1].iter().chain(&mids) {
+                assert!(col.sampled_coordinates(t, &mut got), "sample {t} of [{t0}, {t1}]");
+                col.dense(t, &mut y).unwrap();
+                for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
+                    let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
+                    let (scale_x, scale_v) = (c.abs().dot(&y.rows(0, 3).abs()), c.abs().dot(&y.rows(3, 3).abs()));
+                    worst = worst.max((x - want_x).abs() / scale_x).max((v - want_v).abs() / scale_v);
+                }
+                compared += 1;
+            }
+            assert!(!col.sampled_coordinates(0.3 * t0 + 0.7 * t1, &mut got) || g.contains(&(0.3 * t0 + 0.7 * t1)));
+            assert!(!col.sampled_coordinates(t1, &mut got), "the step's end is not one of them");
+        }
+        assert!(worst <= 1e-12, "{worst:e} of the terms' size");
+        assert!(compared > 100, "{compared} samples");
     }
 }
 

@@ -59,6 +59,12 @@ pub(super) struct IntegratedSegment {
     pub steps: u64,
     /// Room for one integrated state (the switch locator's samples).
     buffer: std::cell::RefCell<DVector<f64>>,
+    /// Per evaluator, the watched direction it reads at the switch
+    /// locator's samples ([`ForceCollocation::sampled_coordinates`]; empty
+    /// when one of them needs the whole state: a held stop's reaction),
+    /// and room for those coordinates.
+    sampled: Vec<usize>,
+    coordinates: std::cell::RefCell<Vec<(f64, f64)>>,
     /// With a held rigid stop among the contacts: what its reaction
     /// depends on besides the state.
     pub reaction_model: Option<ReactionModel>,
@@ -265,6 +271,12 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn values(&self, t: f64, out: &mut [f64]) {
+        if let Some(coordinates) = self.sampled_at(t) {
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = self.sampled_value(i, &coordinates);
+            }
+            return;
+        }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
         for (o, e) in out.iter_mut().zip(&self.evaluators) {
@@ -273,12 +285,23 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn value(&self, i: usize, t: f64) -> f64 {
+        if let Some(coordinates) = self.sampled_at(t) {
+            return self.sampled_value(i, &coordinates);
+        }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
         self.evaluate(&self.evaluators[i], t, &y)
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
+        if let Some(coordinates) = self.sampled_at(t) {
+            let (_, rate) = coordinates[self.sampled[i]];
+            return match &self.evaluators[i] {
+                Evaluator::Affine(..) | Evaluator::Nonlinear { watch: Watch::Penetration, .. } => Some(rate),
+                Evaluator::Nonlinear { watch: Watch::Gap, .. } => Some(-rate),
+                Evaluator::Nonlinear { .. } => None,
+            };
+        }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
         self.rate_in(i, &y)
@@ -286,6 +309,30 @@ impl DenseWatch for IntegratedSegment {
 }
 
 impl IntegratedSegment {
+    /// The watched coordinates at `t` when it is one of the switch
+    /// locator's samples inside the last step (none at the step's ends,
+    /// whose states are exact).
+    fn sampled_at(&self, t: f64) -> Option<std::cell::Ref<'_, Vec<(f64, f64)>>> {
+        if self.sampled.is_empty() {
+            return None;
+        }
+        let found = self.solver.sampled_coordinates(t, &mut self.coordinates.borrow_mut());
+        found.then(|| self.coordinates.borrow())
+    }
+
+    /// Evaluator `i` from its direction's coordinate and rate (the
+    /// formulas of [`Self::evaluate`] and [`Self::rate_in`]).
+    fn sampled_value(&self, i: usize, coordinates: &[(f64, f64)]) -> f64 {
+        let (x, v) = coordinates[self.sampled[i]];
+        match &self.evaluators[i] {
+            Evaluator::Affine(h, floor) => h.offset + x + floor,
+            Evaluator::Nonlinear { contact, watch } => {
+                let c = &self.phase.contacts[*contact];
+                c.law.watched(*watch, x - c.geometry.gap, v, c.onset_speed).0
+            }
+        }
+    }
+
     /// Computes and keeps the state at `t` inside the last step to the
     /// method's full order (see [`Self::exact`]).
     pub fn settle_at(&mut self, t: f64) {
@@ -315,7 +362,7 @@ impl Simulation {
                 contacts.push(NonlinearContact { stop: i, law: m.law.clone(), geometry: self.geometries[i].clone(), contact: s.contact, onset_speed: s.onset_speed, held });
             }
         }
-        let evaluators = self
+        let evaluators: Vec<Evaluator> = self
             .channels
             .iter()
             .map(|ch: &Channel| match self.state.stops[ch.stop].contact {
@@ -398,7 +445,47 @@ impl Simulation {
             stiffness: self.dynamics.oscillators.iter().map(|o| o.omega * o.omega).collect(),
             damping: self.dynamics.oscillators.iter().map(|o| 2.0 * o.a).collect(),
         });
-        Ok(IntegratedSegment { buffer: DVector::zeros(dim).into(), phase, solver, evaluators, step: None, exact: None, anchor_time: self.state.anchor_time, anchor, steps: 0, reaction_model })
+        // The directions the switch locator reads: each engaged contact's
+        // (its penetration, rate and force) and each open stop's gap.
+        let mut directions: Vec<DVector<f64>> = Vec::new();
+        let mut of_contact = vec![usize::MAX; phase.contacts.len()];
+        let mut sampled = Vec::with_capacity(evaluators.len());
+        for e in &evaluators {
+            match e {
+                Evaluator::Nonlinear { watch: Watch::Reaction, .. } => {
+                    sampled.clear();
+                    directions.clear();
+                    break;
+                }
+                Evaluator::Nonlinear { contact, .. } => {
+                    if of_contact[*contact] == usize::MAX {
+                        of_contact[*contact] = directions.len();
+                        let g = &phase.contacts[*contact].geometry;
+                        directions.push(&g.w * g.side);
+                    }
+                    sampled.push(of_contact[*contact]);
+                }
+                Evaluator::Affine(h, _) => {
+                    sampled.push(directions.len());
+                    directions.push(h.q.clone());
+                }
+            }
+        }
+        solver.watch_directions(directions);
+        Ok(IntegratedSegment {
+            buffer: DVector::zeros(dim).into(),
+            sampled,
+            coordinates: Default::default(),
+            phase,
+            solver,
+            evaluators,
+            step: None,
+            exact: None,
+            anchor_time: self.state.anchor_time,
+            anchor,
+            steps: 0,
+            reaction_model,
+        })
     }
 
     /// Steps the integrated phase until its steps cover `t` (a restored
@@ -651,7 +738,10 @@ pub(super) struct IntegratedSwitch {
 fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
     let (t0, y0) = (seg.solver.t(), seg.solver.y().clone_owned());
     let (a, b) = seg.solver.step(&seg.phase).map_err(|e| integration(t0, e.to_string()))?;
-    seg.solver.prefill(&crate::solve::switch::grid(a, b));
+    if seg.sampled.is_empty() {
+        // The locator reads whole states at its samples.
+        seg.solver.prefill(&crate::solve::switch::grid(a, b));
+    }
     debug_assert_eq!(a, t0);
     seg.step = Some((a, b, y0));
     seg.steps += 1;
