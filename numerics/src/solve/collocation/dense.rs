@@ -7,7 +7,7 @@ use crate::solve::free::Projection;
 use crate::solve::modal_state::ModalState;
 use crate::solve::phi::phi_columns;
 use crate::solve::switch::sample_time;
-use super::kernels::{GRID, INNER};
+use super::kernels::{kernels_of, GRID};
 use super::scheme::{integral, taylor_shift};
 use super::{ForceCollocation, Step, STAGES};
 
@@ -63,18 +63,43 @@ pub(super) struct Samples {
     projected: bool,
     /// Per sample, every direction's `(c . q, c . q')` once asked for.
     values: Vec<Vec<(f64, f64)>>,
-    /// Per step size (the ladder's recur), the contacts' responses to the
-    /// force monomials in each direction at each sample:
-    /// `[((k * nd + i) * nc + e) * s + m]`, the most recent last.
-    responses: Vec<(f64, Vec<[f64; 2]>)>,
+    /// Per step size (the ladder's recur), what its samples need, the
+    /// most recent last.
+    sizes: Vec<SampleKernels>,
+    /// Room for every mode's kernels and responses at a time off them.
+    off_free: Vec<(f64, f64)>,
+    off_responses: Vec<[f64; 2]>,
 }
 
-/// Step sizes whose directional responses [`Samples`] keeps.
+/// What the samples of one step size need: every mode's `(Ec, Es)` at
+/// sample `k` (`[k * n + j]`) and the contacts' responses to the force
+/// monomials in each watched direction (`[((k * nd + i) * nc + e) * s +
+/// m]`), at `(k + 1) h / (2 GRID)`, `k < INNER`.
+#[derive(Clone, Debug)]
+struct SampleKernels {
+    h: f64,
+    free: Vec<(f64, f64)>,
+    responses: Vec<[f64; 2]>,
+}
+
+/// The switch locator's samples strictly inside a step: the grid's inner
+/// points and the grid intervals' midpoints.
+const INNER: usize = 2 * GRID - 1;
+
+/// Step sizes whose sample kernels [`Samples`] keeps.
 const SAMPLE_SIZES: usize = 48;
+
+impl Samples {
+    /// Another stepper's sample kernels (the same modes, contacts and
+    /// watched directions).
+    pub(super) fn adopt_sizes(&mut self, other: &Samples) {
+        self.sizes.clone_from(&other.sizes);
+    }
+}
 
 impl ForceCollocation {
     /// The directions `c` whose coordinates `c . q` (and rates) the
-    /// switch locator reads from [`Self::sampled_coordinates`].
+    /// switch locator reads from [`Self::watched_coordinates`].
     pub fn watch_directions(&mut self, directions: Vec<DVector<f64>>) {
         // The weights of the contacts' modal responses in each direction.
         self.watched_weights = directions
@@ -85,15 +110,16 @@ impl ForceCollocation {
         *self.samples.get_mut() = Samples::default();
     }
 
-    /// Every watched direction's `(c . q, c . q')` at `t` into `out`, when
-    /// `t` is one of the switch locator's samples strictly inside the last
-    /// step (a point of [`grid`] or the midpoint of two neighbouring ones,
-    /// formed as the locator forms them); `false` otherwise. The dense
-    /// output's motion projected: the free motion through its projection
-    /// on `c` and the contacts' responses at that fraction of the step
-    /// (kept with the step size's kernels), in `O(N)` per direction and
-    /// contact where the state costs `O(N s)` and the states' memo.
-    pub fn sampled_coordinates(&self, t: f64, out: &mut Vec<(f64, f64)>) -> bool {
+    /// Every watched direction's `(c . q, c . q')` at `t` strictly inside
+    /// the last step into `out` (`false`: outside it, or a harmonic load
+    /// near resonance). The dense output's motion projected: the free
+    /// motion through its projection on `c` and the contacts' responses.
+    /// At the switch locator's samples (a point of [`crate::solve::switch::grid`] or
+    /// the midpoint of two neighbouring ones, formed as the locator forms
+    /// them) those responses are kept per step size and direction, so a
+    /// sample costs `O(N)` for the free motion and `O(s)` per contact;
+    /// elsewhere (a zero's refinement) every mode's kernels at `t`.
+    pub fn watched_coordinates(&self, t: f64, out: &mut Vec<(f64, f64)>) -> bool {
         let Some(l) = self.last.as_ref() else { return false };
         if self.watched.is_empty() {
             return false;
@@ -117,39 +143,67 @@ impl ForceCollocation {
             samples.values.resize(INNER, Vec::new());
             samples.step = Some((l.t0, l.h));
         }
-        let Some(k) = samples.times.iter().position(|&s| s == t) else { return false };
         if !samples.projected {
             return false;
         }
+        let Some(k) = samples.times.iter().position(|&s| s == t) else {
+            if !(t > l.t0 && t < l.t0 + l.h) {
+                return false;
+            }
+            // Off the samples (a zero's refinement): every mode's kernels
+            // and responses at t, projected.
+            let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
+            let (tau, mut phis) = (t - l.t0, [[0.0; 2]; 12]);
+            let sigma = tau / l.h;
+            let Samples { projections, off_free, off_responses, .. } = &mut *samples;
+            off_free.resize(n, (0.0, 0.0));
+            off_responses.resize(n * s, [0.0; 2]);
+            for ((j, osc), free) in self.dynamics.oscillators.iter().enumerate().zip(off_free.iter_mut()) {
+                phi_columns(osc, tau, &mut phis[..s + 1]);
+                *free = kernels_of(phis[0], osc.a);
+                let mut factor = tau;
+                for m in 0..s {
+                    off_responses[j * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+                    factor *= sigma * (m + 1) as f64;
+                }
+            }
+            out.clear();
+            for (i, projection) in projections.iter().enumerate() {
+                let (mut x, mut v) = projection.at(&self.dynamics, tau, off_free);
+                for (weights, alpha) in self.watched_weights[i * nc..(i + 1) * nc].iter().zip(&l.force) {
+                    for (&w, r) in weights.iter().zip(off_responses.chunks_exact(s)) {
+                        if w == 0.0 {
+                            continue;
+                        }
+                        let (mut fx, mut fv) = (0.0, 0.0);
+                        for (a, rm) in alpha.iter().zip(r) {
+                            fx += a * rm[0];
+                            fv += a * rm[1];
+                        }
+                        x -= w * fx;
+                        v -= w * fv;
+                    }
+                }
+                out.push((x, v));
+            }
+            return true;
+        };
         if samples.values[k].is_empty() {
             let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
-            let kernels = self.kernels_for(l.h, true);
-            let free = &kernels.sample_free[k * n..(k + 1) * n];
-            let Samples { projections, values, responses, .. } = &mut *samples;
-            let at = match responses.iter().rposition(|r| r.0 == l.h) {
+            let Samples { projections, values, sizes, .. } = &mut *samples;
+            let at = match sizes.iter().rposition(|r| r.h == l.h) {
                 Some(i) => i,
                 None => {
-                    // `sum_j c_j d_j R_jm` at every sample, for this size.
-                    let mut table = vec![[0.0; 2]; INNER * nd * nc * s];
-                    for (kk, block) in table.chunks_exact_mut(nd * nc * s).enumerate() {
-                        let modal = &kernels.sample_responses[kk * n * s..(kk + 1) * n * s];
-                        for (weights, out) in self.watched_weights.iter().zip(block.chunks_exact_mut(s)) {
-                            for (&w, r) in weights.iter().zip(modal.chunks_exact(s)) {
-                                for (o, rm) in out.iter_mut().zip(r) {
-                                    o[0] += w * rm[0];
-                                    o[1] += w * rm[1];
-                                }
-                            }
-                        }
+                    if sizes.len() == SAMPLE_SIZES {
+                        sizes.remove(0);
                     }
-                    if responses.len() == SAMPLE_SIZES {
-                        responses.remove(0);
-                    }
-                    responses.push((l.h, table));
-                    responses.len() - 1
+                    sizes.push(self.sample_kernels(l.h));
+                    sizes.len() - 1
                 }
             };
-            let table = &responses[at].1[k * nd * nc * s..(k + 1) * nd * nc * s];
+            let size = &sizes[at];
+            let free = &size.free[k * n..(k + 1) * n];
+            let table = &size.responses[k * nd * nc * s..(k + 1) * nd * nc * s];
             for (projection, per_contact) in projections.iter().zip(table.chunks_exact(nc * s)) {
                 let (mut x, mut v) = projection.at(&self.dynamics, t - l.t0, free);
                 for (alpha, r) in l.force.iter().zip(per_contact.chunks_exact(s)) {
@@ -163,6 +217,39 @@ impl ForceCollocation {
         }
         out.clone_from(&samples.values[k]);
         true
+    }
+
+    /// What the samples of steps of size `h` need: every mode's free
+    /// kernels at each sample and the contacts' responses to the force
+    /// monomials there in each watched direction, `sum_j c_j d_j R_jm`.
+    fn sample_kernels(&self, h: f64) -> SampleKernels {
+        let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
+        let mut free = vec![(0.0, 0.0); INNER * n];
+        let mut responses = vec![[0.0; 2]; INNER * nd * nc * s];
+        let (mut phis, mut modal) = ([[0.0; 2]; 12], vec![[0.0; 2]; n * s]);
+        for (k, block) in responses.chunks_exact_mut(nd * nc * s).enumerate() {
+            let tau = (k + 1) as f64 * h / (2 * GRID) as f64;
+            let sigma = tau / h;
+            for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
+                phi_columns(osc, tau, &mut phis[..s + 1]);
+                free[k * n + j] = kernels_of(phis[0], osc.a);
+                // m! sigma^m tau phi_{m+1}, as the dense output's.
+                let mut factor = tau;
+                for m in 0..s {
+                    modal[j * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+                    factor *= sigma * (m + 1) as f64;
+                }
+            }
+            for (weights, out) in self.watched_weights.iter().zip(block.chunks_exact_mut(s)) {
+                for (&w, r) in weights.iter().zip(modal.chunks_exact(s)) {
+                    for (o, rm) in out.iter_mut().zip(r) {
+                        o[0] += w * rm[0];
+                        o[1] += w * rm[1];
+                    }
+                }
+            }
+        }
+        SampleKernels { h, free, responses }
     }
 
     /// The integrated state at `t` in the last step under its
@@ -201,7 +288,7 @@ impl ForceCollocation {
             return;
         }
         let ratio = 1.0 / intervals as f64;
-        let kernels = self.kernels_for(l.h, true);
+        let kernels = self.kernels_for(l.h, true, true);
         let (prop, resp) = (&kernels.grid_propagator, &kernels.grid_responses);
         let mut z = vec![[0.0; 2]; n];
         let mut shifted = vec![[0.0; STAGES]; nc];

@@ -33,20 +33,10 @@ pub struct StepKernels {
     pub(super) grid_responses: Vec<[f64; 2]>,
     /// `(Ec, Es)` at `k h / GRID`: `[(k - 1) * n + j]`, `k = 1..=GRID`.
     pub(super) grid_free: Vec<(f64, f64)>,
-    /// At the switch locator's samples inside the step (`(k + 1) h /
-    /// (2 GRID)`, `k < INNER`: the grid's inner points and the grid
-    /// intervals' midpoints): `(Ec, Es)` at `[k * n + j]`, and the
-    /// responses to `sigma^m` at `[(k * n + j) * s + m]`.
-    pub(super) sample_free: Vec<(f64, f64)>,
-    pub(super) sample_responses: Vec<[f64; 2]>,
 }
 
-/// The switch locator's samples strictly inside a step: the grid's inner
-/// points and the grid intervals' midpoints.
-pub(super) const INNER: usize = 2 * GRID - 1;
-
 /// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
-fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
+pub(super) fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
     (phi0[1] + a * phi0[0], phi0[0])
 }
 
@@ -63,9 +53,9 @@ pub(super) struct Projected {
 }
 
 impl ForceCollocation {
-    /// The kernels of steps of size `h`: from the ladder's cache, or
-    /// computed (with the grid's when `grid`, and kept).
-    pub(super) fn kernels_for(&self, h: f64, grid: bool) -> Arc<StepKernels> {
+    /// The kernels of steps of size `h` (with the grid's when `grid`):
+    /// from the ladder's cache, or computed (and kept when `keep`).
+    pub(super) fn kernels_for(&self, h: f64, keep: bool, grid: bool) -> Arc<StepKernels> {
         {
             let mut cache = self.kernels.borrow_mut();
             if let Some(i) = cache.iter().rposition(|k| k.h == h && (!grid || !k.grid_free.is_empty())) {
@@ -96,24 +86,7 @@ impl ForceCollocation {
             }
         }
         let (mut grid_propagator, mut grid_responses, mut grid_free) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut sample_free, mut sample_responses) = (Vec::new(), Vec::new());
         if grid {
-            sample_free = vec![(0.0, 0.0); INNER * n];
-            sample_responses = vec![[0.0; 2]; INNER * n * s];
-            for k in 0..INNER {
-                let tau = (k + 1) as f64 * h / (2 * GRID) as f64;
-                let sigma = tau / h;
-                for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
-                    phi_columns(osc, tau, &mut phis[..s + 1]);
-                    sample_free[k * n + j] = kernels_of(phis[0], osc.a);
-                    // m! sigma^m tau phi_{m+1}, as the dense output's.
-                    let mut factor = tau;
-                    for m in 0..s {
-                        sample_responses[(k * n + j) * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
-                        factor *= sigma * (m + 1) as f64;
-                    }
-                }
-            }
             let delta = h / GRID as f64;
             grid_propagator = vec![[0.0; 4]; n];
             grid_responses = vec![[0.0; 2]; n * s];
@@ -132,8 +105,8 @@ impl ForceCollocation {
                 }
             }
         }
-        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free, sample_free, sample_responses });
-        if grid {
+        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free });
+        if keep {
             let mut cache = self.kernels.borrow_mut();
             cache.retain(|k| k.h != h);
             if cache.len() >= KERNEL_SETS {
@@ -212,12 +185,16 @@ impl ForceCollocation {
     /// The kernel sets of another stepper over the same structure (the
     /// previous contact phase's): its step sizes recur. Its contacts'
     /// responses too where it has the same contacts (positions and
-    /// directions: the gaps do not enter them).
+    /// directions: the gaps do not enter them), and its samples' where it
+    /// also watches the same directions.
     pub fn adopt_kernels(&mut self, other: &ForceCollocation) {
         if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
             *self.kernels.borrow_mut() = other.kernels.borrow().clone();
             if other.dd == self.dd {
                 *self.projections.borrow_mut() = other.projections.borrow().clone();
+                if other.watched == self.watched {
+                    self.samples.get_mut().adopt_sizes(&other.samples.borrow());
+                }
             }
         }
     }

@@ -33,7 +33,7 @@
 //! the free kernels at the nodes, kept per size); the switch locator
 //! reads its samples inside a step as the watched coordinates alone (the
 //! free motion's projection and the contacts' responses at that fraction
-//! of the step, [`ForceCollocation::sampled_coordinates`]), or, when it
+//! of the step, [`ForceCollocation::watched_coordinates`]), or, when it
 //! needs whole states (a held stop's reaction), marches them from one
 //! propagator per mode ([`ForceCollocation::prefill`]).
 //!
@@ -161,7 +161,7 @@ pub struct ForceCollocation {
     /// locator asks for values and rates at the same sample points).
     memo: std::cell::RefCell<Memo>,
     /// The coordinates the switch locator reads (`c . q` along each) and
-    /// their values at the last step's samples ([`Self::sampled_coordinates`]).
+    /// their values at the last step's samples ([`Self::watched_coordinates`]).
     watched: Vec<DVector<f64>>,
     /// `c_j d_j` per watched direction `c` and contact `d`: `[c * nc + d]`.
     watched_weights: Vec<Vec<f64>>,
@@ -450,11 +450,11 @@ mod tests {
         assert!(col.accepted < 200, "{} steps", col.accepted);
     }
 
-    /// The watched coordinates at the switch locator's samples against
-    /// the dense output's whole state there, step by step (two
-    /// directions: the contact's and another), and nothing off them.
+    /// The watched coordinates at the switch locator's samples and at a
+    /// time off them against the dense output's whole state there, step
+    /// by step (two directions: the contact's and another).
     #[test]
-    fn sampled_coordinates_are_the_dense_outputs() {
+    fn watched_coordinates_are_the_dense_outputs() {
         let oscillators = vec![Oscillator::new(3.0, 0.02), Oscillator::new(40.0, 0.02), Oscillator::new(400.0, 0.05)];
         let mut forcing = ModalForcing::zero(3);
         forcing.constant = DVector::from_vec(vec![60.0, -48.0, 36.0]);
@@ -474,7 +474,7 @@ mod tests {
             let g = crate::solve::switch::grid(t0, t1);
             let mids: Vec<f64> = g.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
             for &t in g[1..g.len() - 1].iter().chain(&mids) {
-                assert!(col.sampled_coordinates(t, &mut got), "sample {t} of [{t0}, {t1}]");
+                assert!(col.watched_coordinates(t, &mut got), "sample {t} of [{t0}, {t1}]");
                 col.dense(t, &mut y).unwrap();
                 for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
                     let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
@@ -483,8 +483,16 @@ mod tests {
                 }
                 compared += 1;
             }
-            assert!(!col.sampled_coordinates(0.3 * t0 + 0.7 * t1, &mut got) || g.contains(&(0.3 * t0 + 0.7 * t1)));
-            assert!(!col.sampled_coordinates(t1, &mut got), "the step's end is not one of them");
+            // Off the samples too (a zero's refinement), not at the ends.
+            let t = 0.3 * t0 + 0.7 * t1;
+            assert!(col.watched_coordinates(t, &mut got));
+            col.dense(t, &mut y).unwrap();
+            for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
+                let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
+                let (scale_x, scale_v) = (c.abs().dot(&y.rows(0, 3).abs()), c.abs().dot(&y.rows(3, 3).abs()));
+                worst = worst.max((x - want_x).abs() / scale_x).max((v - want_v).abs() / scale_v);
+            }
+            assert!(!col.watched_coordinates(t1, &mut got) && !col.watched_coordinates(t0, &mut got), "the step's ends are not inside it");
         }
         assert!(worst <= 1e-12, "{worst:e} of the terms' size");
         assert!(compared > 100, "{compared} samples");

@@ -113,7 +113,7 @@ impl ForceCollocation {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
         self.attempts.set(self.attempts.get() + 1);
-        let kernels = self.kernels_for(h, cached);
+        let kernels = self.kernels_for(h, cached, false);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
         let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, projections, spare } = &mut *guard;

@@ -141,7 +141,7 @@ impl ForceCollocation {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
         let mono = s + 2;
-        let kernels = self.kernels_for(h, false);
+        let kernels = self.kernels_for(h, false, false);
         let projected = self.projected_for(&kernels, false);
         let (mp, mv) = (&projected.mp, &projected.mv);
         let scratch = self.scratch.borrow();

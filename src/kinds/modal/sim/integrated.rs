@@ -59,11 +59,11 @@ pub(super) struct IntegratedSegment {
     pub steps: u64,
     /// Room for one integrated state (the switch locator's samples).
     buffer: std::cell::RefCell<DVector<f64>>,
-    /// Per evaluator, the watched direction it reads at the switch
-    /// locator's samples ([`ForceCollocation::sampled_coordinates`]; empty
-    /// when one of them needs the whole state: a held stop's reaction),
-    /// and room for those coordinates.
-    sampled: Vec<usize>,
+    /// Per evaluator, the watched direction it reads inside a step
+    /// ([`ForceCollocation::watched_coordinates`]; empty when one of them
+    /// needs the whole state: a held stop's reaction), and room for those
+    /// coordinates.
+    direction_of: Vec<usize>,
     coordinates: std::cell::RefCell<Vec<(f64, f64)>>,
     /// With a held rigid stop among the contacts: what its reaction
     /// depends on besides the state.
@@ -271,9 +271,9 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn values(&self, t: f64, out: &mut [f64]) {
-        if let Some(coordinates) = self.sampled_at(t) {
+        if let Some(coordinates) = self.watched_at(t) {
             for (i, o) in out.iter_mut().enumerate() {
-                *o = self.sampled_value(i, &coordinates);
+                *o = self.watched_value(i, &coordinates);
             }
             return;
         }
@@ -285,8 +285,8 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn value(&self, i: usize, t: f64) -> f64 {
-        if let Some(coordinates) = self.sampled_at(t) {
-            return self.sampled_value(i, &coordinates);
+        if let Some(coordinates) = self.watched_at(t) {
+            return self.watched_value(i, &coordinates);
         }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
@@ -294,8 +294,8 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
-        if let Some(coordinates) = self.sampled_at(t) {
-            let (_, rate) = coordinates[self.sampled[i]];
+        if let Some(coordinates) = self.watched_at(t) {
+            let (_, rate) = coordinates[self.direction_of[i]];
             return match &self.evaluators[i] {
                 Evaluator::Affine(..) | Evaluator::Nonlinear { watch: Watch::Penetration, .. } => Some(rate),
                 Evaluator::Nonlinear { watch: Watch::Gap, .. } => Some(-rate),
@@ -309,21 +309,21 @@ impl DenseWatch for IntegratedSegment {
 }
 
 impl IntegratedSegment {
-    /// The watched coordinates at `t` when it is one of the switch
-    /// locator's samples inside the last step (none at the step's ends,
-    /// whose states are exact).
-    fn sampled_at(&self, t: f64) -> Option<std::cell::Ref<'_, Vec<(f64, f64)>>> {
-        if self.sampled.is_empty() {
+    /// The watched coordinates at `t` strictly inside the last step (at
+    /// its ends the locator reads the exact states), when every evaluator
+    /// reads one.
+    fn watched_at(&self, t: f64) -> Option<std::cell::Ref<'_, Vec<(f64, f64)>>> {
+        if self.direction_of.is_empty() {
             return None;
         }
-        let found = self.solver.sampled_coordinates(t, &mut self.coordinates.borrow_mut());
+        let found = self.solver.watched_coordinates(t, &mut self.coordinates.borrow_mut());
         found.then(|| self.coordinates.borrow())
     }
 
     /// Evaluator `i` from its direction's coordinate and rate (the
     /// formulas of [`Self::evaluate`] and [`Self::rate_in`]).
-    fn sampled_value(&self, i: usize, coordinates: &[(f64, f64)]) -> f64 {
-        let (x, v) = coordinates[self.sampled[i]];
+    fn watched_value(&self, i: usize, coordinates: &[(f64, f64)]) -> f64 {
+        let (x, v) = coordinates[self.direction_of[i]];
         match &self.evaluators[i] {
             Evaluator::Affine(h, floor) => h.offset + x + floor,
             Evaluator::Nonlinear { contact, watch } => {
@@ -437,9 +437,6 @@ impl Simulation {
         let h_init = quarter * corner_fraction.min(0.25);
         let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: 16.0 * quarter, corner_fraction };
         let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
-        if let Some(super::Segment::Integrated(previous)) = &self.spare {
-            solver.adopt_kernels(&previous.solver);
-        }
         let reaction_model = phase.contacts.iter().any(|c| c.held).then(|| ReactionModel {
             forcing: self.dynamics.forcing.clone(),
             stiffness: self.dynamics.oscillators.iter().map(|o| o.omega * o.omega).collect(),
@@ -449,11 +446,11 @@ impl Simulation {
         // (its penetration, rate and force) and each open stop's gap.
         let mut directions: Vec<DVector<f64>> = Vec::new();
         let mut of_contact = vec![usize::MAX; phase.contacts.len()];
-        let mut sampled = Vec::with_capacity(evaluators.len());
+        let mut direction_of = Vec::with_capacity(evaluators.len());
         for e in &evaluators {
             match e {
                 Evaluator::Nonlinear { watch: Watch::Reaction, .. } => {
-                    sampled.clear();
+                    direction_of.clear();
                     directions.clear();
                     break;
                 }
@@ -463,18 +460,21 @@ impl Simulation {
                         let g = &phase.contacts[*contact].geometry;
                         directions.push(&g.w * g.side);
                     }
-                    sampled.push(of_contact[*contact]);
+                    direction_of.push(of_contact[*contact]);
                 }
                 Evaluator::Affine(h, _) => {
-                    sampled.push(directions.len());
+                    direction_of.push(directions.len());
                     directions.push(h.q.clone());
                 }
             }
         }
         solver.watch_directions(directions);
+        if let Some(super::Segment::Integrated(previous)) = &self.spare {
+            solver.adopt_kernels(&previous.solver);
+        }
         Ok(IntegratedSegment {
             buffer: DVector::zeros(dim).into(),
-            sampled,
+            direction_of,
             coordinates: Default::default(),
             phase,
             solver,
@@ -738,7 +738,7 @@ pub(super) struct IntegratedSwitch {
 fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
     let (t0, y0) = (seg.solver.t(), seg.solver.y().clone_owned());
     let (a, b) = seg.solver.step(&seg.phase).map_err(|e| integration(t0, e.to_string()))?;
-    if seg.sampled.is_empty() {
+    if seg.direction_of.is_empty() {
         // The locator reads whole states at its samples.
         seg.solver.prefill(&crate::solve::switch::grid(a, b));
     }
