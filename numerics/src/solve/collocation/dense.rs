@@ -106,6 +106,7 @@ impl ForceCollocation {
             .iter()
             .flat_map(|c| self.contacts.iter().map(move |contact| c.iter().zip(contact.d.iter()).map(|(cj, dj)| cj * dj).collect()))
             .collect();
+        self.watched_contact = directions.iter().map(|c| self.contacts.iter().position(|contact| contact.d == *c)).collect();
         self.watched = directions;
         *self.samples.get_mut() = Samples::default();
     }
@@ -138,7 +139,18 @@ impl ForceCollocation {
             }
             let Samples { projections, .. } = &mut *samples;
             projections.resize_with(self.watched.len(), Projection::default);
-            samples.projected = self.watched.iter().zip(samples.projections.iter_mut()).all(|(c, p)| l.free.projected(&self.dynamics, c.as_slice(), p));
+            // A contact's own direction: the step's projection on it.
+            let mut projected = true;
+            for ((c, p), contact) in self.watched.iter().zip(projections.iter_mut()).zip(&self.watched_contact) {
+                projected &= match contact {
+                    Some(e) if l.projected => {
+                        p.clone_from(&l.projections[*e]);
+                        true
+                    }
+                    _ => l.free.projected(&self.dynamics, c.as_slice(), p),
+                };
+            }
+            samples.projected = projected;
             samples.values.iter_mut().for_each(Vec::clear);
             samples.values.resize(INNER, Vec::new());
             samples.step = Some((l.t0, l.h));

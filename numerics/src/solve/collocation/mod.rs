@@ -45,7 +45,7 @@ use std::sync::Arc;
 
 use nalgebra::DVector;
 
-use super::free::{FreeDynamics, FreeSegment};
+use super::free::{FreeDynamics, FreeSegment, Projection};
 
 mod dense;
 mod kernels;
@@ -122,6 +122,10 @@ pub struct Step {
     force: Vec<Vec<f64>>,
     /// Per contact, the dissipated power's interpolant, likewise.
     dissipation: Vec<Vec<f64>>,
+    /// The free motion projected on each contact's coordinate (when
+    /// `projected`: not near a harmonic load's resonance).
+    projections: Vec<Projection>,
+    projected: bool,
 }
 
 /// A step that failed: Newton did not converge.
@@ -165,6 +169,8 @@ pub struct ForceCollocation {
     watched: Vec<DVector<f64>>,
     /// `c_j d_j` per watched direction `c` and contact `d`: `[c * nc + d]`.
     watched_weights: Vec<Vec<f64>>,
+    /// The contact whose direction each watched one is, if any.
+    watched_contact: Vec<Option<usize>>,
     samples: std::cell::RefCell<Samples>,
     /// The kernels of the step sizes used lately (steps take sizes from a
     /// ladder, so that neighbouring steps share them).
@@ -200,7 +206,7 @@ impl ForceCollocation {
         }
         let h = options.h_init.min(options.h_max);
         let amax = contacts.iter().map(|c| c.d.amax()).collect();
-        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
+        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), watched_contact: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
     }
 
     /// Steps attempted so far, of every kind.

@@ -3,7 +3,7 @@
 
 use nalgebra::DVector;
 
-use crate::solve::free::{FreeSegment, Projection};
+use crate::solve::free::FreeSegment;
 use crate::solve::lu::{Lu, Order};
 use crate::solve::modal_state::ModalState;
 use super::scheme::horner;
@@ -33,8 +33,6 @@ pub(super) struct Scratch {
     /// The step's start and the free motion at its points.
     start: ModalState,
     end: ModalState,
-    /// The step's free motion projected on each contact's coordinate.
-    projections: Vec<Projection>,
     /// A step whose storage the next attempt reuses (a rejected attempt's,
     /// the last accepted step once replaced).
     spare: Option<Step>,
@@ -116,16 +114,16 @@ impl ForceCollocation {
         let kernels = self.kernels_for(h, cached, false);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
-        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, projections, spare } = &mut *guard;
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, defect, drive, fb, start, end, spare } = &mut *guard;
         if start.q.len() != n {
             (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
         }
         start.q.copy_from(&y0.rows(0, n));
         start.qd.copy_from(&y0.rows(n, n));
         // The storage of a spare step, else new.
-        let (mut free, mut force, mut dissipation, mut y0_copy) = match spare.take() {
-            Some(Step { free, force, dissipation, y0: copy, .. }) => (free, force, dissipation, copy),
-            None => (FreeSegment::new(&self.dynamics, t0, start), Vec::new(), Vec::new(), y0.clone()),
+        let (mut free, mut force, mut dissipation, mut y0_copy, mut projections) = match spare.take() {
+            Some(Step { free, force, dissipation, y0: copy, projections, .. }) => (free, force, dissipation, copy, projections),
+            None => (FreeSegment::new(&self.dynamics, t0, start), Vec::new(), Vec::new(), y0.clone(), Vec::new()),
         };
         free.reset(&self.dynamics, t0, start);
         if y0_copy.len() == y0.len() {
@@ -139,11 +137,11 @@ impl ForceCollocation {
         reset(pf, nc * (s + 1));
         reset(pdf, nc * (s + 1));
         projections.resize_with(nc, Default::default);
-        let projected = (0..nc).all(|c| free.projected(&self.dynamics, self.contacts[c].d.as_slice(), &mut projections[c]));
+        let free_projected = (0..nc).all(|c| free.projected(&self.dynamics, self.contacts[c].d.as_slice(), &mut projections[c]));
         for i in 0..=s {
             let tau = if i < s { self.scheme.c[i] * h } else { h };
             let point_kernels = &kernels.free[i * n..(i + 1) * n];
-            if i < s && projected {
+            if i < s && free_projected {
                 for c in 0..nc {
                     let (p, pd) = projections[c].at(&self.dynamics, tau, point_kernels);
                     pf[c * (s + 1) + i] = p - self.contacts[c].gap;
@@ -349,7 +347,7 @@ impl ForceCollocation {
             return Err(NewtonFailure);
         }
         self.onto_held(forces, &mut y1);
-        Ok(Attempt { y1, step: Step { t0, h, y0: y0_copy, free, force, dissipation }, error })
+        Ok(Attempt { y1, step: Step { t0, h, y0: y0_copy, free, force, dissipation, projections, projected: free_projected }, error })
     }
 
 }
