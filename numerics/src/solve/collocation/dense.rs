@@ -5,9 +5,8 @@ use nalgebra::DVector;
 
 use crate::solve::free::Projection;
 use crate::solve::modal_state::ModalState;
-use crate::solve::phi::phi_columns;
 use crate::solve::switch::sample_time;
-use super::kernels::{kernels_of, GRID};
+use super::kernels::{point_responses, GRID};
 use super::scheme::{integral, taylor_shift};
 use super::{ForceCollocation, Step, STAGES};
 
@@ -66,9 +65,18 @@ pub(super) struct Samples {
     /// Per step size (the ladder's recur), what its samples need, the
     /// most recent last.
     sizes: Vec<SampleKernels>,
-    /// Room for every mode's kernels and responses at a time off them.
-    off_free: Vec<(f64, f64)>,
-    off_responses: Vec<[f64; 2]>,
+    /// Room for the kernels at a time off them.
+    off: PointKernels,
+}
+
+/// The kernels at one time of a step ([`ForceCollocation::point_kernels`]).
+#[derive(Clone, Debug, Default)]
+struct PointKernels {
+    free: Vec<(f64, f64)>,
+    /// `sum_j c_j d_j R_jm`: `[(i * nc + e) * s + m]`.
+    responses: Vec<[f64; 2]>,
+    /// Every mode's `R_jm`: `[j * s + m]`.
+    modal: Vec<[f64; 2]>,
 }
 
 /// What the samples of one step size need: every mode's `(Ec, Es)` at
@@ -163,41 +171,11 @@ impl ForceCollocation {
                 return false;
             }
             // Off the samples (a zero's refinement): every mode's kernels
-            // and responses at t, projected.
-            let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
-            let (tau, mut phis) = (t - l.t0, [[0.0; 2]; 12]);
-            let sigma = tau / l.h;
-            let Samples { projections, off_free, off_responses, .. } = &mut *samples;
-            off_free.resize(n, (0.0, 0.0));
-            off_responses.resize(n * s, [0.0; 2]);
-            for ((j, osc), free) in self.dynamics.oscillators.iter().enumerate().zip(off_free.iter_mut()) {
-                phi_columns(osc, tau, &mut phis[..s + 1]);
-                *free = kernels_of(phis[0], osc.a);
-                let mut factor = tau;
-                for m in 0..s {
-                    off_responses[j * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
-                    factor *= sigma * (m + 1) as f64;
-                }
-            }
+            // at t, projected as a sample's.
+            let Samples { projections, off, .. } = &mut *samples;
+            self.point_kernels(t - l.t0, l.h, off);
             out.clear();
-            for (i, projection) in projections.iter().enumerate() {
-                let (mut x, mut v) = projection.at(&self.dynamics, tau, off_free);
-                for (weights, alpha) in self.watched_weights[i * nc..(i + 1) * nc].iter().zip(&l.force) {
-                    for (&w, r) in weights.iter().zip(off_responses.chunks_exact(s)) {
-                        if w == 0.0 {
-                            continue;
-                        }
-                        let (mut fx, mut fv) = (0.0, 0.0);
-                        for (a, rm) in alpha.iter().zip(r) {
-                            fx += a * rm[0];
-                            fv += a * rm[1];
-                        }
-                        x -= w * fx;
-                        v -= w * fv;
-                    }
-                }
-                out.push((x, v));
-            }
+            self.project(l, t, projections, &off.free, &off.responses, out);
             return true;
         };
         if samples.values[k].is_empty() {
@@ -216,52 +194,63 @@ impl ForceCollocation {
             let size = &sizes[at];
             let free = &size.free[k * n..(k + 1) * n];
             let table = &size.responses[k * nd * nc * s..(k + 1) * nd * nc * s];
-            for (projection, per_contact) in projections.iter().zip(table.chunks_exact(nc * s)) {
-                let (mut x, mut v) = projection.at(&self.dynamics, t - l.t0, free);
-                for (alpha, r) in l.force.iter().zip(per_contact.chunks_exact(s)) {
-                    for (a, rm) in alpha.iter().zip(r) {
-                        x -= a * rm[0];
-                        v -= a * rm[1];
-                    }
-                }
-                values[k].push((x, v));
-            }
+            self.project(l, t, projections, free, table, &mut values[k]);
         }
         out.clone_from(&samples.values[k]);
         true
     }
 
-    /// What the samples of steps of size `h` need: every mode's free
-    /// kernels at each sample and the contacts' responses to the force
-    /// monomials there in each watched direction, `sum_j c_j d_j R_jm`.
+    /// What the samples of steps of size `h` need (each one's
+    /// [`Self::point_kernels`]).
     fn sample_kernels(&self, h: f64) -> SampleKernels {
+        let mut point = PointKernels::default();
+        let mut size = SampleKernels { h, free: Vec::new(), responses: Vec::new() };
+        for k in 0..INNER {
+            self.point_kernels((k + 1) as f64 * h / (2 * GRID) as f64, h, &mut point);
+            size.free.extend_from_slice(&point.free);
+            size.responses.extend_from_slice(&point.responses);
+        }
+        size
+    }
+
+    /// At `tau` into a step of size `h`: every mode's free kernels, and
+    /// the contacts' responses to the force monomials in each watched
+    /// direction, `sum_j c_j d_j R_jm(tau)` (`[(i * nc + e) * s + m]`).
+    fn point_kernels(&self, tau: f64, h: f64, out: &mut PointKernels) {
         let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
-        let mut free = vec![(0.0, 0.0); INNER * n];
-        let mut responses = vec![[0.0; 2]; INNER * nd * nc * s];
-        let (mut phis, mut modal) = ([[0.0; 2]; 12], vec![[0.0; 2]; n * s]);
-        for (k, block) in responses.chunks_exact_mut(nd * nc * s).enumerate() {
-            let tau = (k + 1) as f64 * h / (2 * GRID) as f64;
-            let sigma = tau / h;
-            for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
-                phi_columns(osc, tau, &mut phis[..s + 1]);
-                free[k * n + j] = kernels_of(phis[0], osc.a);
-                // m! sigma^m tau phi_{m+1}, as the dense output's.
-                let mut factor = tau;
-                for m in 0..s {
-                    modal[j * s + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
-                    factor *= sigma * (m + 1) as f64;
-                }
-            }
-            for (weights, out) in self.watched_weights.iter().zip(block.chunks_exact_mut(s)) {
-                for (&w, r) in weights.iter().zip(modal.chunks_exact(s)) {
-                    for (o, rm) in out.iter_mut().zip(r) {
-                        o[0] += w * rm[0];
-                        o[1] += w * rm[1];
-                    }
+        out.free.resize(n, (0.0, 0.0));
+        out.modal.resize(n * s, [0.0; 2]);
+        for ((osc, free), modal) in self.dynamics.oscillators.iter().zip(out.free.iter_mut()).zip(out.modal.chunks_exact_mut(s)) {
+            *free = point_responses(osc, tau, h, modal);
+        }
+        out.responses.clear();
+        out.responses.resize(nd * nc * s, [0.0; 2]);
+        for (weights, directional) in self.watched_weights.iter().zip(out.responses.chunks_exact_mut(s)) {
+            for (&w, r) in weights.iter().zip(out.modal.chunks_exact(s)) {
+                for (o, rm) in directional.iter_mut().zip(r) {
+                    o[0] += w * rm[0];
+                    o[1] += w * rm[1];
                 }
             }
         }
-        SampleKernels { h, free, responses }
+    }
+
+    /// Every watched direction's `(c . q, c . q')` at `t` in the last
+    /// step `l` from its free motion's projections and the point's
+    /// kernels (`free`, and `responses` as [`Self::point_kernels`]'), onto
+    /// the end of `out`.
+    fn project(&self, l: &Step, t: f64, projections: &[Projection], free: &[(f64, f64)], responses: &[[f64; 2]], out: &mut Vec<(f64, f64)>) {
+        let (s, nc) = (self.scheme.s, self.contacts.len());
+        for (projection, per_contact) in projections.iter().zip(responses.chunks_exact(nc * s)) {
+            let (mut x, mut v) = projection.at(&self.dynamics, t - l.t0, free);
+            for (alpha, r) in l.force.iter().zip(per_contact.chunks_exact(s)) {
+                for (a, rm) in alpha.iter().zip(r) {
+                    x -= a * rm[0];
+                    v -= a * rm[1];
+                }
+            }
+            out.push((x, v));
+        }
     }
 
     /// The integrated state at `t` in the last step under its
@@ -358,16 +347,9 @@ impl ForceCollocation {
         let mut st = ModalState::zeros(n);
         l.free.state_at(&self.dynamics, t, &mut st);
         let mut r = vec![[0.0; 2]; n * (s + 1)];
-        let mut phis = [[0.0; 2]; 8];
         if tau > 0.0 {
-            let sigma = tau / l.h;
             for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
-                phi_columns(osc, tau, &mut phis[..s + 1]);
-                let mut factor = tau;
-                for m in 0..s {
-                    r[j * (s + 1) + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
-                    factor *= sigma * (m + 1) as f64;
-                }
+                point_responses(osc, tau, l.h, &mut r[j * (s + 1)..j * (s + 1) + s]);
             }
         }
         for j in 0..n {

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use nalgebra::DMatrix;
 
 use crate::solve::phi::phi_columns;
+use crate::solve::Oscillator;
 use crate::solve::switch::SAMPLES;
 use super::ForceCollocation;
 
@@ -36,8 +37,25 @@ pub struct StepKernels {
 }
 
 /// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
-pub(super) fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
+fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
     (phi0[1] + a * phi0[0], phi0[0])
+}
+
+/// One mode's responses at `tau` into a step of size `h` to the loads
+/// `sigma^m` from rest (`sigma = tau / h`, `m < responses.len()`, at most
+/// 10): `m! sigma^m tau phi_{m+1}(tau A) b`; returns its free kernels
+/// `(Ec, Es)` at `tau`.
+pub(super) fn point_responses(osc: &Oscillator, tau: f64, h: f64, responses: &mut [[f64; 2]]) -> (f64, f64) {
+    let mut phis = [[0.0; 2]; 12];
+    let terms = responses.len();
+    phi_columns(osc, tau, &mut phis[..terms + 1]);
+    let sigma = tau / h;
+    let mut factor = tau;
+    for (m, r) in responses.iter_mut().enumerate() {
+        *r = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
+        factor *= sigma * (m + 1) as f64;
+    }
+    kernels_of(phis[0], osc.a)
 }
 
 /// The contact coordinates' responses for one step size.
@@ -72,17 +90,9 @@ impl ForceCollocation {
         let mut free = vec![(0.0, 0.0); points.len() * n];
         let mut phis = [[0.0; 2]; 8];
         for (i, &tau) in points.iter().enumerate() {
-            let sigma = tau / h;
             for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
-                phi_columns(osc, tau, &mut phis[..mono + 1]);
-                free[i * n + j] = kernels_of(phis[0], osc.a);
-                // m! sigma^m tau phi_{m+1}.
-                let mut factor = tau;
                 let base = (i * n + j) * mono;
-                for m in 0..mono {
-                    responses[base + m] = [factor * phis[m + 1][0], factor * phis[m + 1][1]];
-                    factor *= sigma * (m + 1) as f64;
-                }
+                free[i * n + j] = point_responses(osc, tau, h, &mut responses[base..base + mono]);
             }
         }
         let (mut grid_propagator, mut grid_responses, mut grid_free) = (Vec::new(), Vec::new(), Vec::new());
