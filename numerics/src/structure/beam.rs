@@ -10,13 +10,11 @@
 //! past mode 12, this form keeps ~1e-14 to mode 500.
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-use std::sync::Arc;
+
 
 use nalgebra::{Matrix4, Vector4};
 
-use super::table::Table;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Support {
     PinnedPinned,
     ClampedFree,
@@ -112,25 +110,8 @@ pub fn integrate(f: impl Fn(f64) -> f64, panels: usize) -> f64 {
     crate::solve::quadrature::integrate(0.0, 1.0, panels, f)
 }
 
-/// The modes made so far, with `int_0^1 W~`, by support and index.
-static MODES: Table<(Support, usize), (DimensionlessMode, f64)> = Table::new();
-
 impl DimensionlessMode {
-    /// Mode `j` (from 1) of `support` (made once per process).
     pub fn new(support: Support, j: usize) -> Self {
-        Self::with_integral(support, j).0.clone()
-    }
-
-    /// Mode `j` and its integral `int_0^1 W~` (made once per process).
-    fn with_integral(support: Support, j: usize) -> Arc<(Self, f64)> {
-        MODES.get_or_make((support, j), || {
-            let mode = Self::make(support, j);
-            let integral = integrate(|xi| mode.derivative(0, xi), 8 * (j + 2));
-            (mode, integral)
-        })
-    }
-
-    fn make(support: Support, j: usize) -> Self {
         let beta = support.beta(j);
         let (left, right) = support.ends();
         let at0 = basis(beta, 0.0);
@@ -186,9 +167,8 @@ pub struct Beam {
 
 impl Beam {
     pub fn new(support: Support, n_modes: usize, length: f64, mass_per_length: f64, bending_stiffness: f64) -> Self {
-        let made: Vec<_> = (1..=n_modes).map(|j| DimensionlessMode::with_integral(support, j)).collect();
-        let modes = made.iter().map(|m| m.0.clone()).collect();
-        let integrals = made.iter().map(|m| m.1).collect();
+        let modes: Vec<DimensionlessMode> = (1..=n_modes).map(|j| DimensionlessMode::new(support, j)).collect();
+        let integrals = modes.iter().enumerate().map(|(j, m)| integrate(|xi| m.derivative(0, xi), 8 * (j + 3))).collect();
         Beam { support, length, mass_per_length, bending_stiffness, modes, integrals }
     }
 

@@ -4,7 +4,6 @@
 pub mod beam;
 pub mod chain;
 pub mod rotating;
-pub mod table;
 pub mod tip_spring;
 
 pub use beam::{Beam, Support};

@@ -71,7 +71,6 @@
 //! `J_h > 0` or prescribe the hub motion.
 
 use std::f64::consts::PI;
-use std::sync::Arc;
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
@@ -80,7 +79,6 @@ use crate::solve::quadrature::for_each_node;
 mod modal;
 pub use modal::{FrozenPart, Hub, ModalEquations};
 use crate::structure::beam::{DimensionlessMode, Support};
-use crate::structure::table::Table;
 
 /// Which terms of the shortening `u` the model keeps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -140,13 +138,6 @@ impl DimensionlessIntegrals {
     /// their own rounding).
     pub fn new(n: usize) -> Self {
         Self::with_panels_per_half_wave(n, 1)
-    }
-
-    /// [`Self::new`], made once per process for each `n` (a sweep's model
-    /// builds share it; at 64 modes it is most of a build).
-    pub fn shared(n: usize) -> Arc<Self> {
-        static MADE: Table<usize, DimensionlessIntegrals> = Table::new();
-        MADE.get_or_make(n, || Self::new(n))
     }
 
     /// [`Self::new`] with `per` panels per half wave of the highest mode.
@@ -236,7 +227,7 @@ impl Plane {
 #[derive(Clone, Debug)]
 pub struct RotatingBeam {
     pub params: RotatingBeamParams,
-    pub hat: Arc<DimensionlessIntegrals>,
+    pub hat: DimensionlessIntegrals,
     pub m: DMatrix<f64>,
     pub k: DMatrix<f64>,
     pub gamma: DVector<f64>,
@@ -353,7 +344,7 @@ impl RotatingBeam {
         if let Some(z) = zeta.iter().find(|z| !(**z >= 0.0 && z.is_finite())) {
             return Err(format!("rotating beam: damping ratio {z} must be >= 0"));
         }
-        let hat = DimensionlessIntegrals::shared(n);
+        let hat = DimensionlessIntegrals::new(n);
         let (l, mu, ei, r) = (p.length, p.mass_per_length, p.bending_stiffness, p.hub_radius);
         let m = &hat.m * (mu * l);
         let k = &hat.k * (ei / l.powi(3));
