@@ -39,7 +39,10 @@
 //!
 //! The dense output is the exact motion under the step's polynomials; at
 //! an interior time it has stage order, so a state the outputs read is
-//! recomputed by a step of its own ([`ForceCollocation::single_step`]).
+//! recomputed by a step of its own ([`ForceCollocation::single_step`]);
+//! a switch's Newton iteration then moves that state by its corrections
+//! (a small share of a step) with [`ForceCollocation::shift`], the free
+//! motion in closed form and the forces as a line between the ends.
 
 use std::sync::Arc;
 
@@ -52,6 +55,7 @@ mod kernels;
 mod newton;
 mod scheme;
 mod sensitivity;
+mod shift;
 
 use dense::{Memo, Samples};
 pub use kernels::StepKernels;
@@ -362,9 +366,9 @@ mod tests {
     use crate::solve::{ModalForcing, Oscillator};
 
     /// A Hertz-like force `k p^1.5 (1 + c p')` on one point.
-    struct Hertzian {
-        k: f64,
-        c: f64,
+    pub(super) struct Hertzian {
+        pub(super) k: f64,
+        pub(super) c: f64,
     }
 
     impl PointForces for Hertzian {

@@ -597,8 +597,9 @@ impl Simulation {
             let mut approach = None;
             let mut at = seg.switch_state(t0, &y0, t1, te, &mut approach);
             // The zero is the dense output's (stage order): Newton on the
-            // full-order state, each iterate a step from the step's start,
-            // moves it to the full-order zero (within the step, after the
+            // full-order state, each iterate a shift of the last (a step
+            // from the step's start where the shift is too long), moves it
+            // to the full-order zero (within the step, after the
             // bracket's start); that state may then lie a rounding-sized
             // distance short of it, and Newton steps on from it carry the
             // switch past the zero, as the locator promises.
@@ -626,7 +627,10 @@ impl Simulation {
                     if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
                         break;
                     }
-                    at = seg.switch_state(t0, &y0, t1, next, &mut approach);
+                    at = match seg.solver.shift(&seg.phase, te, &at, next) {
+                        Some(y) => y,
+                        None => seg.switch_state(t0, &y0, t1, next, &mut approach),
+                    };
                     te = next;
                 }
                 for _ in 0..6 {
@@ -645,8 +649,9 @@ impl Simulation {
                         self.state.scan = self.state.scan.max(t_end);
                         return Ok(None);
                     }
-                    // A step on from the switch state.
-                    at = match seg.solver.single_step(&seg.phase, te, &at, next, false) {
+                    // A shift or a step on from the switch state.
+                    let on = seg.solver.shift(&seg.phase, te, &at, next).map(Ok);
+                    at = match on.unwrap_or_else(|| seg.solver.single_step(&seg.phase, te, &at, next, false)) {
                         Ok(y) => y,
                         Err(_) => seg.switch_state(t0, &y0, t1, next, &mut approach),
                     };

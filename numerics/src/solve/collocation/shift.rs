@@ -1,0 +1,147 @@
+//! A short move of the state along the motion, either way in time: the
+//! free motion in closed form and each contact's force as the line
+//! through its values at the two ends. What a switch's Newton iteration
+//! needs once its corrections are a small share of a step (the
+//! separation's time moved by the dense output's error, then by
+//! rounding), instead of a collocation step from the approach with
+//! kernels of a size no other step shares.
+
+use nalgebra::DVector;
+
+use super::kernels::point_responses;
+use super::{ForceCollocation, PointForces};
+use crate::solve::free::FreeSegment;
+use crate::solve::modal_state::ModalState;
+
+/// The longest shift, in radians of the fastest mode (its phase and
+/// decay over the shift).
+const MAX_ANGLE: f64 = 1.0;
+/// What the force's change over a shift may move a contact coordinate's
+/// rate by (as the line's difference from the force held at its start),
+/// in the Newton iteration's share of the tolerance: the line's own error
+/// is of the next order in the shift.
+const CHANGE_FRACTION: f64 = 1e-3;
+
+impl ForceCollocation {
+    /// The state at `t1` from `(t, y)` (`t1` before `t` too), or `None`
+    /// where the shift is not short enough: longer than [`MAX_ANGLE`] of
+    /// the fastest mode, a held contact (its reaction is not a law's
+    /// force), or forces whose change over it moves a contact
+    /// coordinate's rate by more than [`CHANGE_FRACTION`] of the Newton
+    /// iteration's tolerance. The impulses and dissipated energies in `y`
+    /// move by the trapezoidal rule.
+    pub fn shift(&self, forces: &impl PointForces, t: f64, y: &DVector<f64>, t1: f64) -> Option<DVector<f64>> {
+        let (n, nc) = (self.n, self.contacts.len());
+        let delta = t1 - t;
+        if delta == 0.0 {
+            return Some(y.clone());
+        }
+        let oscillators = &self.dynamics.oscillators;
+        let fastest = oscillators.iter().map(|o| o.omega + o.a).fold(0.0, f64::max);
+        if !(fastest * delta.abs() <= MAX_ANGLE) || (0..nc).any(|c| forces.held(c)) {
+            return None;
+        }
+        // Per mode: the free kernels over the shift, and the responses from
+        // rest to a unit load and to one rising as (s / delta).
+        let mut kernels = vec![(0.0, 0.0); n];
+        let mut responses = vec![[[0.0; 2]; 2]; n];
+        for (j, osc) in oscillators.iter().enumerate() {
+            kernels[j] = point_responses(osc, delta, delta, &mut responses[j]);
+        }
+        let mut start = ModalState::zeros(n);
+        start.q.copy_from(&y.rows(0, n));
+        start.qd.copy_from(&y.rows(n, n));
+        let mut free = ModalState::zeros(n);
+        FreeSegment::new(&self.dynamics, t, &start).state_with_kernels(&self.dynamics, t1, &kernels, &mut free);
+        let law = |c: usize, y: &DVector<f64>| {
+            let (p, pd) = self.coordinate(c, y);
+            let f = forces.force(c, p, pd).0;
+            (f, forces.dissipation_rate(c, p, pd, f))
+        };
+        let moved = |f0: &[(f64, f64)], f1: &[(f64, f64)]| {
+            let mut out = y.clone();
+            for j in 0..n {
+                let (mut x, mut v) = (free.q[j], free.qd[j]);
+                for c in 0..nc {
+                    let (a, b) = (f0[c].0, f1[c].0 - f0[c].0);
+                    let dj = self.contacts[c].d[j];
+                    x -= dj * (a * responses[j][0][0] + b * responses[j][1][0]);
+                    v -= dj * (a * responses[j][0][1] + b * responses[j][1][1]);
+                }
+                (out[j], out[n + j]) = (x, v);
+            }
+            for c in 0..nc {
+                out[2 * n + c] += 0.5 * delta * (f0[c].0 + f1[c].0);
+                out[2 * n + nc + c] += 0.5 * delta * (f0[c].1 + f1[c].1);
+            }
+            out
+        };
+        let at_start: Vec<(f64, f64)> = (0..nc).map(|c| law(c, y)).collect();
+        let held = moved(&at_start, &at_start);
+        let at_end: Vec<(f64, f64)> = (0..nc).map(|c| law(c, &held)).collect();
+        let y1 = moved(&at_start, &at_end);
+        // The line's difference from the force held, on each contact's rate
+        // (mass-normalised modes: |d|^2 per unit impulse over a short shift).
+        let short = (0..nc).all(|c| {
+            let change = 0.5 * (at_end[c].0 - at_start[c].0).abs() * delta.abs() * self.contacts[c].d.norm_squared();
+            change <= CHANGE_FRACTION * self.options.tol * self.options.v_scale * self.amax[c]
+        });
+        short.then_some(y1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::Hertzian;
+    use super::super::{CollocationOptions, PointContact};
+    use super::*;
+    use crate::solve::{FreeDynamics, ModalForcing, Oscillator};
+
+    /// Inside a Hertzian contact and across its separation, a shift
+    /// against a collocation step to the same time (and back again, the
+    /// start within rounding).
+    #[test]
+    fn a_shift_is_a_short_step() {
+        let oscillators = vec![Oscillator::new(3.0, 0.02), Oscillator::new(40.0, 0.02), Oscillator::new(400.0, 0.05)];
+        let mut forcing = ModalForcing::zero(3);
+        forcing.constant = DVector::from_vec(vec![60.0, -48.0, 36.0]);
+        forcing.add_harmonic(5.0, DVector::from_vec(vec![crate::solve::C64::new(1.0, 0.0), crate::solve::C64::new(0.0, 0.3), crate::solve::C64::new(0.1, 0.0)]));
+        let dynamics = FreeDynamics::new(oscillators, forcing);
+        let d = DVector::from_vec(vec![1.0, -0.8, 0.6]);
+        let law = Hertzian { k: 3e4, c: 0.3 };
+        let y0 = DVector::from_vec(vec![0.01, 0.0, 0.0, 0.5, 0.1, -0.2, 0.0, 0.0]);
+        let options = CollocationOptions { tol: 1e-10, q_scale: 0.01, v_scale: 0.5, h_init: 1e-4, h_max: 0.05, corner_fraction: 1e-10f64.powf(2.0 / 7.0) };
+        let mut col = ForceCollocation::new(dynamics, vec![PointContact { d, gap: 0.0 }], 0.0, y0, options);
+        let (mut inside, mut across) = (0, 0);
+        let mut worst: f64 = 0.0;
+        while col.t() < 0.3 {
+            col.step(&law).unwrap();
+            let last = col.last_step().unwrap();
+            let (t0, y0, h) = (last.t0, last.y0.clone(), last.h);
+            for fraction in [1e-6, 1e-4] {
+                let t1 = t0 + fraction * h;
+                let Some(shifted) = col.shift(&law, t0, &y0, t1) else { continue };
+                let stepped = col.single_step(&law, t0, &y0, t1, false).unwrap();
+                let back = col.shift(&law, t1, &shifted, t0).expect("the way back is as short");
+                let (p0, p1) = (col.coordinate(0, &y0).0, col.coordinate(0, &stepped).0);
+                if p0 > 0.0 && p1 > 0.0 {
+                    inside += 1;
+                } else if p0 > 0.0 {
+                    across += 1;
+                }
+                for k in 0..8 {
+                    let scale: f64 = match k {
+                        0..=2 => 0.01,
+                        3..=5 => 0.5,
+                        _ => y0[k].abs().max(1e-6),
+                    };
+                    worst = worst.max((shifted[k] - stepped[k]).abs() / scale);
+                    assert!((shifted[k] - stepped[k]).abs() <= 1e-13 * scale, "t {t0} + {fraction} h, component {k}: shift {} against a step {}", shifted[k], stepped[k]);
+                    assert!((back[k] - y0[k]).abs() <= 1e-12 * scale, "t {t0}, component {k}: there and back {} against {}", back[k], y0[k]);
+                }
+            }
+        }
+        assert!(inside > 20, "{inside} shifts inside the contact");
+        eprintln!("{inside} shifts inside the contact, {across} across its end; largest difference {worst:e} of the scale");
+    }
+}
