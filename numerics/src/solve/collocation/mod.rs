@@ -478,7 +478,7 @@ mod tests {
         let mut col = ForceCollocation::new(dynamics, vec![PointContact { d: d.clone(), gap: 0.0 }], 0.0, y0, options);
         col.watch_directions(vec![d.clone(), other.clone()]);
         let (mut y, mut got) = (DVector::zeros(8), Vec::new());
-        let (mut compared, mut worst) = (0, 0.0f64);
+        let (mut compared, mut worst, mut worst_off_rate) = (0, 0.0f64, 0.0f64);
         while col.t() < 0.2 {
             let (t0, t1) = col.step(&law).unwrap();
             let g = crate::solve::switch::grid(t0, t1);
@@ -493,18 +493,25 @@ mod tests {
                 }
                 compared += 1;
             }
-            // Off the samples too (a zero's refinement), not at the ends.
+            // Off the samples too (a zero's refinement), not at the ends,
+            // and a few ulps on (read from the same anchor: the rate is
+            // the anchor's).
             let t = 0.3 * t0 + 0.7 * t1;
-            assert!(col.watched_coordinates(t, &mut got));
-            col.dense(t, &mut y).unwrap();
-            for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
-                let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
-                let (scale_x, scale_v) = (c.abs().dot(&y.rows(0, 3).abs()), c.abs().dot(&y.rows(3, 3).abs()));
-                worst = worst.max((x - want_x).abs() / scale_x).max((v - want_v).abs() / scale_v);
+            for t in [t, t + 3.0 * f64::EPSILON * t, t - 7.0 * f64::EPSILON * t] {
+                assert!(col.watched_coordinates(t, &mut got));
+                col.dense(t, &mut y).unwrap();
+                for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
+                    let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
+                    let (scale_x, scale_v) = (c.abs().dot(&y.rows(0, 3).abs()), c.abs().dot(&y.rows(3, 3).abs()));
+                    worst = worst.max((x - want_x).abs() / scale_x);
+                    worst_off_rate = worst_off_rate.max((v - want_v).abs() / scale_v);
+                }
             }
             assert!(!col.watched_coordinates(t1, &mut got) && !col.watched_coordinates(t0, &mut got), "the step's ends are not inside it");
         }
         assert!(worst <= 1e-12, "{worst:e} of the terms' size");
+        // The anchor's rate, off by the acceleration over 2^-41 of t.
+        assert!(worst_off_rate <= 1e-9, "rates off the samples: {worst_off_rate:e} of the terms' size");
         assert!(compared > 100, "{compared} samples");
     }
 }
