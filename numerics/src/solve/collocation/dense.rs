@@ -120,9 +120,9 @@ const SAMPLE_SIZES: usize = 48;
 
 impl Samples {
     /// Another stepper's sample kernels (the same modes, contacts and
-    /// watched directions).
-    pub(super) fn adopt_sizes(&mut self, other: &Samples) {
-        self.sizes.clone_from(&other.sizes);
+    /// watched directions), taken from it.
+    pub(super) fn adopt_sizes(&mut self, other: &mut Samples) {
+        self.sizes = std::mem::take(&mut other.sizes);
     }
 }
 

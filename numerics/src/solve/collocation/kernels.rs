@@ -192,18 +192,20 @@ impl ForceCollocation {
         projected
     }
 
-    /// The kernel sets of another stepper over the same structure (the
-    /// previous contact phase's): its step sizes recur. Its contacts'
-    /// responses too where it has the same contacts (positions and
-    /// directions: the gaps do not enter them), and its samples' where it
-    /// also watches the same directions.
-    pub fn adopt_kernels(&mut self, other: &ForceCollocation) {
+    /// Takes the kernel sets of another stepper over the same structure
+    /// (the previous contact phase's, done with them): its step sizes
+    /// recur. Its contacts' responses too where it has the same contacts
+    /// (positions and directions: the gaps do not enter them), and its
+    /// samples' where it also watches the same directions. Moved, not
+    /// copied: a contact's start then costs no copy of them (HertzStop at
+    /// 20 modes and tolerance 1e-4: 0.6M of 22M instructions).
+    pub fn adopt_kernels(&mut self, other: &mut ForceCollocation) {
         if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
-            *self.kernels.borrow_mut() = other.kernels.borrow().clone();
+            *self.kernels.get_mut() = std::mem::take(other.kernels.get_mut());
             if other.dd == self.dd {
-                *self.projections.borrow_mut() = other.projections.borrow().clone();
+                *self.projections.get_mut() = std::mem::take(other.projections.get_mut());
                 if other.watched == self.watched {
-                    self.samples.get_mut().adopt_sizes(&other.samples.borrow());
+                    self.samples.get_mut().adopt_sizes(other.samples.get_mut());
                 }
             }
         }

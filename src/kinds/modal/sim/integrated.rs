@@ -349,7 +349,7 @@ impl IntegratedSegment {
 impl Simulation {
     /// The integrated segment of a phase with a nonlinear stop engaged:
     /// every engaged stop of a law with a force is one of its contacts.
-    pub(super) fn integrated_segment(&self) -> Result<IntegratedSegment, SimError> {
+    pub(super) fn integrated_segment(&mut self) -> Result<IntegratedSegment, SimError> {
         let n = self.model.n_modes();
         let mut contacts = Vec::new();
         let mut index = vec![usize::MAX; self.model.stops.len()];
@@ -469,8 +469,8 @@ impl Simulation {
             }
         }
         solver.watch_directions(directions);
-        if let Some(super::Segment::Integrated(previous)) = &self.spare {
-            solver.adopt_kernels(&previous.solver);
+        if let Some(super::Segment::Integrated(previous)) = &mut self.spare {
+            solver.adopt_kernels(&mut previous.solver);
         }
         Ok(IntegratedSegment {
             buffer: DVector::zeros(dim).into(),
