@@ -26,10 +26,11 @@ impl ForceCollocation {
     /// The state at `t1` from `(t, y)` (`t1` before `t` too), or `None`
     /// where the shift is not short enough: longer than [`MAX_ANGLE`] of
     /// the fastest mode, a held contact (its reaction is not a law's
-    /// force), or forces whose change over it moves a contact
-    /// coordinate's rate by more than [`CHANGE_FRACTION`] of the Newton
-    /// iteration's tolerance. The impulses and dissipated energies in `y`
-    /// move by the trapezoidal rule.
+    /// force), forces whose change over it moves a contact coordinate's
+    /// rate by more than [`CHANGE_FRACTION`] of the Newton iteration's
+    /// tolerance, or dissipated powers whose change moves the energy by
+    /// more than the tolerance of the modes' kinetic energy. The impulses
+    /// and dissipated energies in `y` move by the trapezoidal rule.
     pub fn shift(&self, forces: &impl PointForces, t: f64, y: &DVector<f64>, t1: f64) -> Option<DVector<f64>> {
         let (n, nc) = (self.n, self.contacts.len());
         let delta = t1 - t;
@@ -81,10 +82,17 @@ impl ForceCollocation {
         let at_end: Vec<(f64, f64)> = (0..nc).map(|c| law(c, &held)).collect();
         let y1 = moved(&at_start, &at_end);
         // The line's difference from the force held, on each contact's rate
-        // (mass-normalised modes: |d|^2 per unit impulse over a short shift).
+        // (mass-normalised modes: |d|^2 per unit impulse over a short shift),
+        // and from the dissipated power held, on the energy (against the
+        // modes' kinetic energy at their velocity scale): the power jumps
+        // where a push ends inside the surface (a linear damping's force
+        // reaching zero, the spring's share still there), which no line
+        // follows.
+        let (tol, v_scale) = (self.options.tol, self.options.v_scale);
         let short = (0..nc).all(|c| {
-            let change = 0.5 * (at_end[c].0 - at_start[c].0).abs() * delta.abs() * self.contacts[c].d.norm_squared();
-            change <= CHANGE_FRACTION * self.options.tol * self.options.v_scale * self.amax[c]
+            let force = 0.5 * (at_end[c].0 - at_start[c].0).abs() * delta.abs() * self.contacts[c].d.norm_squared();
+            let power = 0.5 * (at_end[c].1 - at_start[c].1).abs() * delta.abs();
+            force <= CHANGE_FRACTION * tol * v_scale * self.amax[c] && power <= tol * v_scale * v_scale
         });
         short.then_some(y1)
     }
@@ -143,5 +151,44 @@ mod tests {
         }
         assert!(inside > 20, "{inside} shifts inside the contact");
         eprintln!("{inside} shifts inside the contact, {across} across its end; largest difference {worst:e} of the scale");
+    }
+
+    /// A spring with linear damping, its force clamped at zero: a push
+    /// that ends inside the surface, its dissipated power jumping there.
+    struct LinearPush {
+        k: f64,
+        c: f64,
+    }
+
+    impl PointForces for LinearPush {
+        fn force(&self, _i: usize, p: f64, pd: f64) -> (f64, f64, f64) {
+            let f = self.k * p + self.c * pd;
+            if p <= 0.0 || f <= 0.0 {
+                return (0.0, 0.0, 0.0);
+            }
+            (f, self.k, self.c)
+        }
+        fn dissipation_rate(&self, _i: usize, p: f64, pd: f64, force: f64) -> f64 {
+            if force > 0.0 { (force - self.k * p) * pd } else { 0.0 }
+        }
+    }
+
+    /// Across the end of such a push the power jumps (no line follows it):
+    /// refused, though the force's change is negligible; inside the push,
+    /// the same shift is taken.
+    #[test]
+    fn a_shift_across_a_jump_of_power_is_refused() {
+        let dynamics = FreeDynamics::new(vec![Oscillator::new(3.0, 0.02)], ModalForcing::zero(1));
+        let law = LinearPush { k: 1e6, c: 40.0 };
+        let options = CollocationOptions { tol: 1e-12, q_scale: 1e-5, v_scale: 0.1, h_init: 1e-6, h_max: 1e-3, corner_fraction: 1e-12f64.powf(1.0 / 3.0) };
+        let p = 1e-6;
+        // Just past the push's end (k p + c p' = 0): clamped, no power.
+        let past = DVector::from_vec(vec![p, -law.k * p / law.c - 1e-12, 0.0, 0.0]);
+        let col = ForceCollocation::new(dynamics, vec![PointContact { d: DVector::from_vec(vec![1.0]), gap: 0.0 }], 0.0, past.clone(), options);
+        assert_eq!(law.force(0, past[0], past[1]).0, 0.0);
+        assert!(col.shift(&law, 0.0, &past, -1e-11).is_none(), "a shift back into the push");
+        let pushing = DVector::from_vec(vec![p, -0.02, 0.0, 0.0]);
+        assert!(law.force(0, pushing[0], pushing[1]).0 > 0.0);
+        assert!(col.shift(&law, 0.0, &pushing, -1e-11).is_some(), "a shift inside the push");
     }
 }
