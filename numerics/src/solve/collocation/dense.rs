@@ -198,7 +198,7 @@ impl ForceCollocation {
             // to t.
             let Samples { projections, off, last_off, .. } = &mut *samples;
             let at = Some(anchor(t)).filter(|a| *a > l.t0 && *a < l.t0 + l.h).unwrap_or(t);
-            if last_off.as_ref().is_none_or(|(t_last, _)| *t_last != at) {
+            if last_off.as_ref().map_or(true, |(t_last, _)| *t_last != at) {
                 let mut coordinates = Vec::with_capacity(projections.len());
                 self.point_kernels(at - l.t0, l.h, off);
                 self.project(l, at, projections, &off.free, &off.responses, &mut coordinates);
