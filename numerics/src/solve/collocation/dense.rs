@@ -6,7 +6,8 @@ use nalgebra::DVector;
 use crate::solve::free::Projection;
 use crate::solve::modal_state::ModalState;
 use crate::solve::switch::sample_time;
-use super::kernels::{point_responses, GRID};
+use crate::solve::phi::phi_columns;
+use super::kernels::{kernels_of, point_responses, GRID};
 use super::scheme::{integral, taylor_shift};
 use super::{ForceCollocation, Step, STAGES};
 
@@ -233,16 +234,73 @@ impl ForceCollocation {
     }
 
     /// What the samples of steps of size `h` need (each one's
-    /// [`Self::point_kernels`]).
+    /// [`Self::point_kernels`]), marched from sample to sample: every
+    /// mode's propagator over `delta = h / (2 GRID)` and its responses to
+    /// `(u / delta)^i` over it (one set of `phi_k` per mode instead of one
+    /// per sample), the monomials `sigma^m` continued across each interval
+    /// by the binomial theorem (HertzStop at 20 modes: 2 to 3 % fewer
+    /// instructions over its run). The samples' coordinates agree with the
+    /// dense output's, whose kernels are each point's own, within 1e-12
+    /// of the terms' size (`watched_coordinates_are_the_dense_outputs`).
     fn sample_kernels(&self, h: f64) -> SampleKernels {
-        let mut point = PointKernels::default();
-        let mut size = SampleKernels { h, free: Vec::new(), responses: Vec::new() };
-        for k in 0..INNER {
-            self.point_kernels((k + 1) as f64 * h / (2 * GRID) as f64, h, &mut point);
-            size.free.extend_from_slice(&point.free);
-            size.responses.extend_from_slice(&point.responses);
+        let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
+        let ratio = 1.0 / (2 * GRID) as f64;
+        let delta = h * ratio;
+        let mut free = vec![(0.0, 0.0); INNER * n];
+        let mut modal = vec![[0.0; 2]; INNER * n * s];
+        // The load sigma^m over the k-th interval in u = (tau - tau_k) /
+        // delta: sum_i C(m, i) sigma_k^(m - i) ratio^i u^i (every mode alike).
+        let mut shift = [[[0.0; STAGES]; STAGES]; INNER];
+        for (k, per_k) in shift.iter_mut().enumerate() {
+            let mut unit = [0.0; STAGES];
+            for m in 0..s {
+                unit[m] = 1.0;
+                taylor_shift(&unit[..s], k as f64 * ratio, ratio, &mut per_k[m][..s]);
+                unit[m] = 0.0;
+            }
         }
-        size
+        let mut phis = [[0.0; 2]; STAGES + 1];
+        for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
+            phi_columns(osc, delta, &mut phis[..=s]);
+            let (ec, es) = kernels_of(phis[0], osc.a);
+            let prop = [ec + osc.a * es, es, -osc.omega * osc.omega * es, ec - osc.a * es];
+            let apply = |z: [f64; 2]| [prop[0] * z[0] + prop[1] * z[1], prop[2] * z[0] + prop[3] * z[1]];
+            // The responses over one interval to (u / delta)^i.
+            let mut g = [[0.0; 2]; STAGES];
+            let mut factor = delta;
+            for (i, gi) in g.iter_mut().enumerate().take(s) {
+                *gi = [factor * phis[i + 1][0], factor * phis[i + 1][1]];
+                factor *= (i + 1) as f64;
+            }
+            // e^{A tau} b = (Es, Ec - a Es), from b at tau = 0.
+            let mut column = [0.0, 1.0];
+            let mut r = [[0.0; 2]; STAGES];
+            for (k, per_k) in shift.iter().enumerate() {
+                for (rm, coefficients) in r.iter_mut().zip(per_k).take(s) {
+                    let mut next = apply(*rm);
+                    for (c, gi) in coefficients.iter().zip(&g).take(s) {
+                        next[0] += c * gi[0];
+                        next[1] += c * gi[1];
+                    }
+                    *rm = next;
+                }
+                column = apply(column);
+                free[k * n + j] = (column[1] + osc.a * column[0], column[0]);
+                modal[(k * n + j) * s..(k * n + j + 1) * s].copy_from_slice(&r[..s]);
+            }
+        }
+        let mut responses = vec![[0.0; 2]; INNER * nd * nc * s];
+        for (k, point) in responses.chunks_exact_mut(nd * nc * s).enumerate() {
+            for (weights, directional) in self.watched_weights.iter().zip(point.chunks_exact_mut(s)) {
+                for (&w, rm) in weights.iter().zip(modal[k * n * s..(k + 1) * n * s].chunks_exact(s)) {
+                    for (o, x) in directional.iter_mut().zip(rm) {
+                        o[0] += w * x[0];
+                        o[1] += w * x[1];
+                    }
+                }
+            }
+        }
+        SampleKernels { h, free, responses }
     }
 
     /// At `tau` into a step of size `h`: every mode's free kernels, and

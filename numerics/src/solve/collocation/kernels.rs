@@ -37,7 +37,7 @@ pub struct StepKernels {
 }
 
 /// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
-fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
+pub(super) fn kernels_of(phi0: [f64; 2], a: f64) -> (f64, f64) {
     (phi0[1] + a * phi0[0], phi0[0])
 }
 
