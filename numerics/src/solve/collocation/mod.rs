@@ -233,20 +233,21 @@ impl ForceCollocation {
     /// One accepted step from the current point; returns its ends.
     pub fn step(&mut self, forces: &impl PointForces) -> Result<(f64, f64), CollocationError> {
         let order = (self.scheme.s + 2) as f64;
-        let (t0, y0) = (self.t, self.y.clone());
+        let t0 = self.t;
         let mut h = self.h.min(self.options.h_max);
         loop {
             h = ladder(h);
             if !(h > 1e-15 * t0.abs().max(1e-300)) || h < 1e-300 {
                 return Err(CollocationError::StepTooSmall { t: t0, h });
             }
-            let guess = self.guess(forces, t0, &y0, h);
-            match self.attempt(forces, t0, &y0, h, &guess, true) {
+            let guess = self.guess(forces, t0, &self.y, h);
+            match self.attempt(forces, t0, &self.y, h, &guess, true) {
                 Ok(a) if a.error <= 1.0 => {
                     let grow = if a.error == 0.0 { 4.0 } else { (0.9 * a.error.powf(-1.0 / order)).clamp(0.2, 4.0) };
                     self.h = (h * grow).min(self.options.h_max);
                     self.t = t0 + h;
-                    self.y = a.y1;
+                    let replaced = std::mem::replace(&mut self.y, a.y1);
+                    self.recycle_state(replaced);
                     if let Some(old) = self.last.replace(a.step) {
                         self.recycle(old);
                     }
@@ -256,6 +257,7 @@ impl ForceCollocation {
                 }
                 Ok(a) => {
                     self.recycle(a.step);
+                    self.recycle_state(a.y1);
                     self.rejected += 1;
                     h *= (0.9 * a.error.powf(-1.0 / order)).clamp(0.1, 0.9);
                 }
