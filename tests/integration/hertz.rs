@@ -431,3 +431,20 @@ fn a_separation_placed_off_the_surface_is_not_taken_as_on_it() {
     let error = w.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / gap;
     assert!(error < 10.0 * 1e-2, "error {error:e} of the gap at tolerance 1e-2");
 }
+
+/// A step ending just short of a separation collocates a force that ends
+/// as `t^1.5` within a small part of the step after it, an error its
+/// estimate does not see; the switch's state is made again from that
+/// step's start (HertzStop at 20 modes: the default tolerance 1e-10 was
+/// 7.1e-10 of the gap off the reference peer, 3.3e-11 now; the peer's
+/// agreement is report/shared_peer's). Here against the converged run:
+/// without the remade state the difference is 6.7e-10 of the gap.
+#[test]
+fn a_separation_after_a_step_ending_near_it_keeps_the_tolerance() {
+    let (reference, contacts) = hertz_stop_at(1e-13);
+    let (w, n) = hertz_stop_at(1e-10);
+    let gap = 1e-3;
+    let error = w.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / gap;
+    assert_eq!(n, contacts);
+    assert!(error < 1e-10, "error {error:e} of the gap at tolerance 1e-10");
+}
