@@ -438,7 +438,7 @@ fn a_separation_placed_off_the_surface_is_not_taken_as_on_it() {
 /// step's start (HertzStop at 20 modes: the default tolerance 1e-10 was
 /// 7.1e-10 of the gap off the reference peer, 3.3e-11 now; the peer's
 /// agreement is report/shared_peer's). Here against the converged run:
-/// without the remade state the difference is 6.7e-10 of the gap.
+/// without the remade state the difference is 8.3e-10 of the gap.
 #[test]
 fn a_separation_after_a_step_ending_near_it_keeps_the_tolerance() {
     let (reference, contacts) = hertz_stop_at(1e-13);

@@ -350,24 +350,29 @@ impl Scene {
 
 /// The tolerance the force collocation is given for
 /// `solver.integration_tolerance = asked`: the same down to 1e-7, a
-/// hundredth of it from 1e-10 on, blended between (`asked (asked /
-/// 1e-7)^(2/3)`), no tighter than [`COLLOCATION_TOLERANCE_FLOOR`]. Its
-/// local error control keeps HertzStop's error within 0.2 to 1.4 times
-/// the tolerance from 1e-4 to 1e-7 of the gap; the errors a step leaves
-/// add up over the contacts and the free flights between them (a rate's
-/// error grows into the displacement's), to 4 times the collocation's
-/// tolerance at 1e-10 and 35 at 1e-11 (20 modes, against the reference
-/// peer): so that the error stays within the tolerance asked from 1e-7
-/// down and no larger below 1e-10 than at it (report/shared_peer).
+/// twentieth of it at 1e-10 and a hundredth from 1e-11 on, blended
+/// geometrically between, no tighter than [`COLLOCATION_TOLERANCE_FLOOR`].
+/// Its local error control keeps HertzStop's error within 0.2 to 1.4
+/// times the tolerance from 1e-4 to 1e-7 of the gap; the errors a step
+/// leaves add up over the contacts and the free flights between them (a
+/// rate's error grows into the displacement's), to 4 times the
+/// collocation's tolerance at 1e-10 and 35 at 1e-11, and stop falling
+/// near 3e-11 (20 modes) from 5e-12 down (report/shared_peer): so that
+/// the error stays within about the tolerance asked from 1e-7 down and no
+/// larger below 1e-10 than at it.
 pub fn collocation_tolerance(asked: f64) -> f64 {
-    let tol = if asked >= 1e-7 {
-        asked
+    let share = if asked >= 1e-7 {
+        1.0
     } else if asked >= 1e-10 {
-        asked * (asked / 1e-7).powf(2.0 / 3.0)
+        // 1 at 1e-7, 1/20 at 1e-10.
+        (asked / 1e-7).powf(20f64.log10() / 3.0)
+    } else if asked >= 1e-11 {
+        // 1/20 at 1e-10, 1/100 at 1e-11.
+        0.05 * (asked / 1e-10).powf(5f64.log10())
     } else {
-        0.01 * asked
+        0.01
     };
-    tol.max(COLLOCATION_TOLERANCE_FLOOR)
+    (share * asked).max(COLLOCATION_TOLERANCE_FLOOR)
 }
 
 /// The tightest tolerance the force collocation is given (from 2e-14
