@@ -352,7 +352,7 @@ impl Scene {
 /// `solver.integration_tolerance = asked`: the same down to 1e-7, a
 /// twentieth of it at 1e-10 and a hundredth from 1e-11 on, blended
 /// geometrically between, no tighter than [`COLLOCATION_TOLERANCE_FLOOR`].
-/// Its local error control keeps HertzStop's error within 0.2 to 1.4
+/// Its local error control keeps HertzStop's error within 0.11 to 1.4
 /// times the tolerance from 1e-4 to 1e-7 of the gap; the errors a step
 /// leaves add up over the contacts and the free flights between them (a
 /// rate's error grows into the displacement's), to 4 times the

@@ -38,16 +38,16 @@ const REMAKE_FROM_BEFORE_BELOW: f64 = 3e-7;
 
 /// A located zero refined on the full-order motion
 /// ([`IntegratedSegment::refine_zero`]).
-pub(super) struct Refined {
-    pub te: f64,
-    pub at: DVector<f64>,
+struct Refined {
+    te: f64,
+    at: DVector<f64>,
     /// The motion does not reach the zero in the step.
-    pub spurious: bool,
+    spurious: bool,
     /// Above zero and rising where the steps ended: the dense output's dip.
-    pub passed: bool,
+    passed: bool,
 }
 
-pub(super) enum Refinement {
+enum Refinement {
     Done(Refined),
     /// Stepping on past the zero went beyond the search's end.
     PastEnd,
