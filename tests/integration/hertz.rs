@@ -434,11 +434,12 @@ fn a_separation_placed_off_the_surface_is_not_taken_as_on_it() {
 
 /// A step ending just short of a separation collocates a force that ends
 /// as `t^1.5` within a small part of the step after it, an error its
-/// estimate does not see; the switch's state is made again from that
-/// step's start (HertzStop at 20 modes: the default tolerance 1e-10 was
-/// 7.1e-10 of the gap off the reference peer, 3.3e-11 now; the peer's
-/// agreement is report/shared_peer's). Here against the converged run:
-/// without the remade state the difference is 8.3e-10 of the gap.
+/// estimate does not see; the switch's state is made from that step's
+/// start (HertzStop at 20 modes: the default tolerance 1e-10 was 7.1e-10
+/// of the gap off the reference peer, 3.2e-11 now; the peer's agreement
+/// is report/shared_peer's). Here against the converged run: with the
+/// state made from the last step's start the difference is 8.3e-10 of
+/// the gap.
 #[test]
 fn a_separation_after_a_step_ending_near_it_keeps_the_tolerance() {
     let (reference, contacts) = hertz_stop_at(1e-13);

@@ -81,6 +81,30 @@ pub trait DenseWatch {
     /// geometric functions whose dips between samples are searched
     /// (`None` for the others).
     fn rate(&self, i: usize, t: f64) -> Option<f64>;
+    /// Every function's value and rate at `t`, as [`Self::values`] and
+    /// [`Self::rate`] give them: a sample's reads in one pass where the
+    /// dense output gives both at once.
+    fn values_and_rates(&self, t: f64, values: &mut [f64], rates: &mut [Option<f64>]) {
+        self.values(t, values);
+        for (i, r) in rates.iter_mut().enumerate() {
+            *r = self.rate(i, t);
+        }
+    }
+}
+
+/// The watched functions' values and rates at one point.
+struct Reads {
+    values: Vec<f64>,
+    rates: Vec<Option<f64>>,
+}
+
+impl Reads {
+    fn at(watch: &impl DenseWatch, t: f64) -> Self {
+        let n = watch.count();
+        let mut reads = Self { values: vec![0.0; n], rates: vec![None; n] };
+        watch.values_and_rates(t, &mut reads.values, &mut reads.rates);
+        reads
+    }
 }
 
 /// A located switch.
@@ -103,7 +127,10 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
     if n == 0 {
         return None;
     }
-    let mut values = vec![0.0; n];
+    // The reads at the bracket's start (the last sample searched) and at
+    // its end: each sample read once.
+    let mut here: Option<Reads> = None;
+    let mut there = Reads { values: vec![0.0; n], rates: vec![None; n] };
     let mut previous = t0;
     for k in 1..=SAMPLES {
         let s = sample(t0, t1, k);
@@ -111,22 +138,29 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
             previous = s;
             continue;
         }
-        watch.values(s, &mut values);
+        let start = here.get_or_insert_with(|| Reads::at(watch, previous));
+        watch.values_and_rates(s, &mut there.values, &mut there.rates);
         let mut roots: Vec<(usize, f64, f64)> = Vec::new();
-        for (i, &vs) in values.iter().enumerate() {
+        for (i, &vs) in there.values.iter().enumerate() {
+            let va = start.values[i];
             // The end of the bracket: the sample, or a negative minimum before it.
-            let end = if vs < 0.0 { Some((s, vs)) } else { negative_minimum(watch, i, previous, s).map(|tm| (tm, watch.value(i, tm))) };
+            let end = if vs < 0.0 {
+                Some((s, vs))
+            } else {
+                let ends = Ends { a: previous, fa: va, da: start.rates[i], b: s, fb: vs, db: there.rates[i] };
+                negative_minimum(watch, i, ends).map(|tm| (tm, watch.value(i, tm)))
+            };
             if let Some((b, vb)) = end {
-                let va = watch.value(i, previous);
                 // A function already negative at the bracket's start (by
                 // rounding, after a switch) is placed at the bracket's end:
                 // the search moves on by a sample, never by an ulp.
-                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), clear_of_rounding(watch, i, previous, b), b) } else { b };
+                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), clear_of_rounding(watch, i, previous, start.rates[i], b), b) } else { b };
                 let slope = if b > previous { (vb - va.max(0.0)) / (b - previous) } else { -1.0 };
                 roots.push((i, root, slope.min(-f64::MIN_POSITIVE)));
             }
         }
         if roots.is_empty() {
+            std::mem::swap(start, &mut there);
             previous = s;
             continue;
         }
@@ -146,8 +180,8 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
 /// `>= 0`, it has no zero that close: a value below zero there is its
 /// rounding (the dense output at `a + ulp` may differ from the state at
 /// `a` in the last bits), which a bisection would take for the zero.
-fn clear_of_rounding(watch: &impl DenseWatch, i: usize, a: f64, b: f64) -> f64 {
-    if !watch.rate(i, a).is_some_and(|r| r > 0.0) {
+fn clear_of_rounding(watch: &impl DenseWatch, i: usize, a: f64, rate_a: Option<f64>, b: f64) -> f64 {
+    if !rate_a.is_some_and(|r| r > 0.0) {
         return a;
     }
     let limit = 1e-6 * (b - a);
@@ -270,16 +304,26 @@ fn hermite_minimum(fa: f64, da: f64, fb: f64, db: f64, h: f64) -> f64 {
     least
 }
 
+/// A bracket's ends with a function's values and rates there.
+struct Ends {
+    a: f64,
+    fa: f64,
+    da: Option<f64>,
+    b: f64,
+    fb: f64,
+    db: Option<f64>,
+}
+
 /// The first interior minimum of function `i` in `(a, b)` that is
 /// negative, by the sign changes of its rate (module doc).
-fn negative_minimum(watch: &impl DenseWatch, i: usize, a: f64, b: f64) -> Option<f64> {
+fn negative_minimum(watch: &impl DenseWatch, i: usize, ends: Ends) -> Option<f64> {
     let rate = |t: f64| watch.rate(i, t);
-    let (da, db) = (rate(a)?, rate(b)?);
+    let Ends { a, fa, b, fb, .. } = ends;
+    let (da, db) = (ends.da?, ends.db?);
     // Both ends higher above zero than the rates there could take the
     // function down in the interval four times over, or the cubic through
     // the ends' values and rates staying above half the lower end: no dip
     // to look for.
-    let (fa, fb) = (watch.value(i, a), watch.value(i, b));
     let fastest = da.abs().max(db.abs());
     if fa.min(fb) > 4.0 * fastest * (b - a) || (fa.min(fb) > 0.0 && hermite_minimum(fa, da, fb, db, b - a) >= 0.5 * fa.min(fb)) {
         return None;

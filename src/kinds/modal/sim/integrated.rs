@@ -12,7 +12,8 @@
 //! motion under the step's force polynomials) goes to the switch locator
 //! ([`crate::solve::switch`]: samples, interior minima of the gaps and
 //! penetrations, regula falsi to an ulp), and the state at a switch is
-//! recomputed by collocation steps of its own from the step's start,
+//! recomputed by collocation steps of its own from the step's start (or
+//! the one before's),
 //! shrinking toward it (the method's full order at step ends, where the
 //! dense output has stage order; a separation ends the force in a `p^1.5`
 //! corner); Newton on that state then carries the switch past its zero.
@@ -26,15 +27,16 @@ use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointConta
 use crate::solve::switch::{first_switch, grid, DenseWatch, Located};
 use crate::solve::{Functional, Jet, ModalForcing, ModalState, Oscillator, REANCHOR_AFTER};
 
-/// The collocation tolerance from which a switch's state is made again
-/// from the start of the step before the one it lies in, where that step
-/// ended close to it ([`IntegratedSegment::remake_origin`]). HertzStop at
+/// The collocation tolerance from which a switch's state is made from
+/// the start of the step before the one it lies in, where that step
+/// ended close to it ([`IntegratedSegment::origin_before`]). HertzStop at
 /// 20 modes, error of the gap with and without: 1.4e-7 and 5.2e-7 at
-/// 1e-7, 2.8e-9 and 1.8e-8 at 2.2e-9, 3.4e-11 and 7.1e-10 at 1e-12;
-/// at 1e-4 and 1e-6 the error is no smaller with it (2.2e-5 and 4.2e-7
-/// against 1.5e-5 and 2.9e-7), and it costs 2 to 2.6M instructions in
-/// the 0.2 s (4 to 8 % of the run).
-const REMAKE_FROM_BEFORE_BELOW: f64 = 3e-7;
+/// 1e-7, 2.8e-9 and 1.8e-8 at 2.2e-9, 3.4e-11 and 7.1e-10 at 1e-12.
+/// Looser, the step's start: at 1e-4 and 1e-6 the error is no smaller
+/// from the step before (2.2e-5 and 4.2e-7 against 1.5e-5 and 2.9e-7),
+/// and at 1e-3 a grazing dip of the dense output (penetration 4e-10 m)
+/// became a separation and a re-contact.
+const FROM_STEP_BEFORE_BELOW: f64 = 3e-7;
 
 /// A located zero refined on the full-order motion
 /// ([`IntegratedSegment::refine_zero`]).
@@ -77,8 +79,8 @@ pub(super) struct IntegratedSegment {
     /// The last accepted step `[t0, t1]` and the state at its start.
     pub step: Option<(f64, f64, DVector<f64>)>,
     /// The start of the step before it and the state there (a switch
-    /// close after that step's end is made again from there:
-    /// [`IntegratedSegment::remake_origin`]).
+    /// close after that step's end is made from there:
+    /// [`IntegratedSegment::origin_before`]).
     pub previous: Option<(f64, DVector<f64>)>,
     /// The state at a time inside the last step computed by a step of its
     /// own from the step's start (full order, where the dense output has
@@ -222,7 +224,7 @@ impl IntegratedSegment {
     /// The state at a switch at `te` in the step `[t0, t1]`: a step of its
     /// own (the end state at `t1`), by pieces shrinking toward `te` from
     /// `origin` (the step's start, or the one before's:
-    /// [`Self::remake_origin`]; [`ForceCollocation::approach`]).
+    /// [`Self::origin_before`]; [`ForceCollocation::approach`]).
     /// `approach`: where the last piece toward an earlier estimate of the
     /// switch started, and that estimate, kept by the first call; a later
     /// estimate past that start and no further beyond the earlier
@@ -254,9 +256,9 @@ impl IntegratedSegment {
         }
     }
 
-    /// Where a switch's state at `te` in the last step is made again
-    /// from: the start of the step before, where `te` lies closer to that
-    /// step's end than a third of its length (else `None`). A step ending
+    /// Where a switch's state at `te` in the last step is made from at
+    /// tight tolerances: the start of the step before, where `te` lies
+    /// closer to that step's end than a third of its length (else `None`). A step ending
     /// that close to a separation's `t^a` corner collocated a force whose
     /// Taylor radius is a small part of the step, with an error no defect
     /// estimate sees (HertzStop at 20 modes, collocation tolerance 1e-8: a
@@ -265,7 +267,7 @@ impl IntegratedSegment {
     /// from the step before take it again toward the corner, each at most
     /// three times as long as its distance to it, as
     /// [`ForceCollocation::approach`] grades them.
-    fn remake_origin(&self, te: f64) -> Option<(f64, &DVector<f64>)> {
+    fn origin_before(&self, te: f64) -> Option<(f64, &DVector<f64>)> {
         let (t0, _, _) = self.step.as_ref()?;
         match &self.previous {
             Some((tp, yp)) if 3.0 * (te - t0) < t0 - tp => Some((*tp, yp)),
@@ -274,20 +276,16 @@ impl IntegratedSegment {
     }
 
     /// The located zero refined on the full-order motion: the state at
-    /// `start` (a step of its own toward it from `origin`), then Newton on
-    /// that state, each iterate a shift of the last (a step from `origin`
-    /// where the shift is too long). The zero is the dense output's (stage
-    /// order): Newton moves it to the full-order zero (within the step,
-    /// after the bracket's start); that state may then lie a
-    /// rounding-sized distance short of it, and Newton steps on from it
-    /// carry the switch past the zero, as the locator promises. Without
-    /// `newton`, only the steps on: the zero stays at `start` or moves
-    /// later (a state made again at a switch already refined: a zero moved
-    /// back, by an ulp, would lie before the one the search found).
-    #[allow(clippy::too_many_arguments)]
-    fn refine_zero(&self, located: &Located, start: f64, origin: (f64, &DVector<f64>), t1: f64, t_end: f64, oscillators: &[Oscillator], newton: bool) -> Refinement {
+    /// the located time (a step of its own toward it from `origin`), then
+    /// Newton on that state, each iterate a shift of the last (a step
+    /// from `origin` where the shift is too long). The zero is the dense
+    /// output's (stage order): Newton moves it to the full-order zero
+    /// (within the step, after the bracket's start); that state may then
+    /// lie a rounding-sized distance short of it, and Newton steps on from
+    /// it carry the switch past the zero, as the locator promises.
+    fn refine_zero(&self, located: &Located, origin: (f64, &DVector<f64>), t1: f64, t_end: f64, oscillators: &[Oscillator]) -> Refinement {
         let t0 = self.step.as_ref().expect("a step").0;
-        let mut te = start;
+        let mut te = located.time;
         let mut approach = None;
         let mut at = self.switch_state(origin, t0, t1, te, &mut approach);
         let mut spurious = false;
@@ -304,7 +302,7 @@ impl IntegratedSegment {
         let rising = |at: &DVector<f64>, c: usize| self.rate_in(c, at).is_some_and(|r| r > 0.0);
         let mut passed = located.at_zero.first().is_some_and(|&(c, _)| rising(&at, c) && self.below_by_rounding(c, located.from, oscillators.iter().map(|o| o.omega)));
         if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !passed) {
-            for _ in 0..if newton { 4 } else { 0 } {
+            for _ in 0..4 {
                 let g = self.evaluate(&self.evaluators[c], te, &at);
                 let rate = self.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 let next = te - g / rate;
@@ -426,16 +424,27 @@ impl DenseWatch for IntegratedSegment {
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
         if let Some(coordinates) = self.watched_at(t) {
-            let (_, rate) = coordinates[self.direction_of[i]];
-            return match &self.evaluators[i] {
-                Evaluator::Affine(..) | Evaluator::Nonlinear { watch: Watch::Penetration, .. } => Some(rate),
-                Evaluator::Nonlinear { watch: Watch::Gap, .. } => Some(-rate),
-                Evaluator::Nonlinear { .. } => None,
-            };
+            return self.watched_rate(i, &coordinates);
         }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
         self.rate_in(i, &y)
+    }
+
+    fn values_and_rates(&self, t: f64, values: &mut [f64], rates: &mut [Option<f64>]) {
+        if let Some(coordinates) = self.watched_at(t) {
+            for (i, (value, rate)) in values.iter_mut().zip(rates.iter_mut()).enumerate() {
+                *value = self.watched_value(i, &coordinates);
+                *rate = self.watched_rate(i, &coordinates);
+            }
+            return;
+        }
+        let mut y = self.buffer.borrow_mut();
+        self.dense_y_at(t, &mut y);
+        for (i, (value, rate)) in values.iter_mut().zip(rates.iter_mut()).enumerate() {
+            *value = self.evaluate(&self.evaluators[i], t, &y);
+            *rate = self.rate_in(i, &y);
+        }
     }
 }
 
@@ -461,6 +470,17 @@ impl IntegratedSegment {
                 let c = &self.phase.contacts[*contact];
                 c.law.watched(*watch, x - c.geometry.gap, v, c.onset_speed).0
             }
+        }
+    }
+
+    /// Evaluator `i`'s rate from its direction's coordinate rate (as
+    /// [`Self::rate_in`]).
+    fn watched_rate(&self, i: usize, coordinates: &[(f64, f64)]) -> Option<f64> {
+        let (_, rate) = coordinates[self.direction_of[i]];
+        match &self.evaluators[i] {
+            Evaluator::Affine(..) | Evaluator::Nonlinear { watch: Watch::Penetration, .. } => Some(rate),
+            Evaluator::Nonlinear { watch: Watch::Gap, .. } => Some(-rate),
+            Evaluator::Nonlinear { .. } => None,
         }
     }
 
@@ -725,29 +745,20 @@ impl Simulation {
             // The state at the switch: a step of its own from the step's
             // start, refined to the full-order zero. Where the step before
             // ended close to it, that step collocated a force near its
-            // corner: at tight tolerances the switch stands as found from
-            // the step's start (the decision is the same at every
-            // tolerance), and its state is made again from the step
-            // before's start ([`IntegratedSegment::remake_origin`],
-            // [`REMAKE_FROM_BEFORE_BELOW`]).
+            // corner: at tight tolerances the state is made from the step
+            // before's start instead ([`IntegratedSegment::origin_before`],
+            // [`FROM_STEP_BEFORE_BELOW`]).
             let attempts_before_switch = seg.solver.attempts();
-            let y0 = seg.step.as_ref().expect("a step").2.clone();
-            let oscillators = &self.model.oscillators;
-            let tight = self.model.integration_tolerance <= REMAKE_FROM_BEFORE_BELOW;
-            let refined = match seg.refine_zero(&located, located.time, (t0, &y0), t1, t_end, oscillators, true) {
-                Refinement::PastEnd => {
-                    self.state.scan = self.state.scan.max(t_end);
-                    return Ok(None);
-                }
-                Refinement::Done(first) => match seg.remake_origin(first.te).filter(|_| tight && !first.spurious && !first.passed) {
-                    Some((tp, yp)) => match seg.refine_zero(&located, first.te, (tp, &yp.clone()), t1, t_end, oscillators, false) {
-                        Refinement::Done(again) if !again.spurious && !again.passed => again,
-                        _ => first,
-                    },
-                    None => first,
-                },
+            let tight = self.model.integration_tolerance <= FROM_STEP_BEFORE_BELOW;
+            let (origin_t, origin_y) = match seg.origin_before(located.time).filter(|_| tight) {
+                Some((tp, yp)) => (tp, yp.clone()),
+                None => (t0, seg.step.as_ref().expect("a step").2.clone()),
             };
-            let Refined { te, at, spurious, passed } = refined;
+            let refined = seg.refine_zero(&located, (origin_t, &origin_y), t1, t_end, &self.model.oscillators);
+            let Refinement::Done(Refined { te, at, spurious, passed }) = refined else {
+                self.state.scan = self.state.scan.max(t_end);
+                return Ok(None);
+            };
             // The switch state's steps count as steps (each up to a
             // thousand attempts).
             *probes = (*probes + crate::kinds::modal::model::INTEGRATED_STEP_WEIGHT * (seg.solver.attempts() - attempts_before_switch)).min(max_probes.max(*probes));
