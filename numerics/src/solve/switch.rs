@@ -92,18 +92,38 @@ pub trait DenseWatch {
     }
 }
 
+/// Functions whose reads are kept without an allocation (a phase
+/// watches a few: its stops' gaps or penetrations).
+const INLINE: usize = 8;
+
 /// The watched functions' values and rates at one point.
 struct Reads {
-    values: Vec<f64>,
-    rates: Vec<Option<f64>>,
+    n: usize,
+    values: [f64; INLINE],
+    rates: [Option<f64>; INLINE],
+    /// More functions than [`INLINE`].
+    spilled: Option<(Vec<f64>, Vec<Option<f64>>)>,
 }
 
 impl Reads {
-    fn at(watch: &impl DenseWatch, t: f64) -> Self {
-        let n = watch.count();
-        let mut reads = Self { values: vec![0.0; n], rates: vec![None; n] };
-        watch.values_and_rates(t, &mut reads.values, &mut reads.rates);
-        reads
+    fn new(n: usize) -> Self {
+        Self { n, values: [0.0; INLINE], rates: [None; INLINE], spilled: (n > INLINE).then(|| (vec![0.0; n], vec![None; n])) }
+    }
+
+    fn read(&mut self, watch: &impl DenseWatch, t: f64) {
+        let (values, rates) = match &mut self.spilled {
+            Some((values, rates)) => (&mut values[..], &mut rates[..]),
+            None => (&mut self.values[..self.n], &mut self.rates[..self.n]),
+        };
+        watch.values_and_rates(t, values, rates);
+    }
+
+    fn values(&self) -> &[f64] {
+        self.spilled.as_ref().map_or(&self.values[..self.n], |s| &s.0)
+    }
+
+    fn rates(&self) -> &[Option<f64>] {
+        self.spilled.as_ref().map_or(&self.rates[..self.n], |s| &s.1)
     }
 }
 
@@ -129,8 +149,8 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
     }
     // The reads at the bracket's start (the last sample searched) and at
     // its end: each sample read once.
-    let mut here: Option<Reads> = None;
-    let mut there = Reads { values: vec![0.0; n], rates: vec![None; n] };
+    let (mut here, mut there) = (Reads::new(n), Reads::new(n));
+    let mut here_read = false;
     let mut previous = t0;
     for k in 1..=SAMPLES {
         let s = sample(t0, t1, k);
@@ -138,29 +158,33 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
             previous = s;
             continue;
         }
-        let start = here.get_or_insert_with(|| Reads::at(watch, previous));
-        watch.values_and_rates(s, &mut there.values, &mut there.rates);
+        if !here_read {
+            here.read(watch, previous);
+            here_read = true;
+        }
+        there.read(watch, s);
+        let (start, end) = ((here.values(), here.rates()), (there.values(), there.rates()));
         let mut roots: Vec<(usize, f64, f64)> = Vec::new();
-        for (i, &vs) in there.values.iter().enumerate() {
-            let va = start.values[i];
+        for (i, &vs) in end.0.iter().enumerate() {
+            let va = start.0[i];
             // The end of the bracket: the sample, or a negative minimum before it.
             let end = if vs < 0.0 {
                 Some((s, vs))
             } else {
-                let ends = Ends { a: previous, fa: va, da: start.rates[i], b: s, fb: vs, db: there.rates[i] };
+                let ends = Ends { a: previous, fa: va, da: start.1[i], b: s, fb: vs, db: end.1[i] };
                 negative_minimum(watch, i, ends).map(|tm| (tm, watch.value(i, tm)))
             };
             if let Some((b, vb)) = end {
                 // A function already negative at the bracket's start (by
                 // rounding, after a switch) is placed at the bracket's end:
                 // the search moves on by a sample, never by an ulp.
-                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), clear_of_rounding(watch, i, previous, start.rates[i], b), b) } else { b };
+                let root = if va >= 0.0 { bisect(|t| watch.value(i, t), clear_of_rounding(watch, i, previous, start.1[i], b), b) } else { b };
                 let slope = if b > previous { (vb - va.max(0.0)) / (b - previous) } else { -1.0 };
                 roots.push((i, root, slope.min(-f64::MIN_POSITIVE)));
             }
         }
         if roots.is_empty() {
-            std::mem::swap(start, &mut there);
+            std::mem::swap(&mut here, &mut there);
             previous = s;
             continue;
         }
