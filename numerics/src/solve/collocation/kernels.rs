@@ -9,7 +9,7 @@ use nalgebra::DMatrix;
 use crate::solve::phi::phi_columns;
 use crate::solve::Oscillator;
 use crate::solve::switch::SAMPLES;
-use super::ForceCollocation;
+use super::{ForceCollocation, STAGES};
 
 /// Intervals of the switch locator's grid (its samples).
 pub(super) const GRID: usize = SAMPLES;
@@ -86,13 +86,16 @@ impl ForceCollocation {
         let (n, s) = (self.n, self.scheme.s);
         let points: Vec<f64> = self.scheme.c.iter().map(|c| c * h).chain(std::iter::once(h)).collect();
         let mono = s + 2;
-        let mut responses = vec![[0.0; 2]; points.len() * n * mono];
-        let mut free = vec![(0.0, 0.0); points.len() * n];
+        // Filled in order, point by point and mode by mode (no zeroing
+        // first: a new size's tables are some 10 kB).
+        let mut responses = Vec::with_capacity(points.len() * n * mono);
+        let mut free = Vec::with_capacity(points.len() * n);
         let mut phis = [[0.0; 2]; 8];
-        for (i, &tau) in points.iter().enumerate() {
-            for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
-                let base = (i * n + j) * mono;
-                free[i * n + j] = point_responses(osc, tau, h, &mut responses[base..base + mono]);
+        let mut point = [[0.0; 2]; STAGES + 2];
+        for &tau in &points {
+            for osc in &self.dynamics.oscillators {
+                free.push(point_responses(osc, tau, h, &mut point[..mono]));
+                responses.extend_from_slice(&point[..mono]);
             }
         }
         let (mut grid_propagator, mut grid_responses, mut grid_free) = (Vec::new(), Vec::new(), Vec::new());

@@ -240,8 +240,7 @@ impl ForceCollocation {
             if !(h > 1e-15 * t0.abs().max(1e-300)) || h < 1e-300 {
                 return Err(CollocationError::StepTooSmall { t: t0, h });
             }
-            let guess = self.guess(forces, t0, &self.y, h);
-            match self.attempt(forces, t0, &self.y, h, &guess, true) {
+            match self.attempt(forces, t0, &self.y, h, true) {
                 Ok(a) if a.error <= 1.0 => {
                     let grow = if a.error == 0.0 { 4.0 } else { (0.9 * a.error.powf(-1.0 / order)).clamp(0.2, 4.0) };
                     self.h = (h * grow).min(self.options.h_max);
@@ -315,8 +314,7 @@ impl ForceCollocation {
             }
             // A size of the ladder, whose kernels recur from switch to switch.
             let h_try = ladder(nominal);
-            let guess = self.guess(forces, t, &y, h_try);
-            let a = self.attempt(forces, t, &y, h_try, &guess, true)?;
+            let a = self.attempt(forces, t, &y, h_try, true)?;
             (t, y) = (t + h_try, a.y1);
             self.recycle(a.step);
             remaining /= GRADING;
@@ -332,8 +330,7 @@ impl ForceCollocation {
         for _ in 0..1000 {
             let last = t + h >= t1;
             let h_try = if last { t1 - t } else { h };
-            let guess = self.guess(forces, t, &y, h_try);
-            match self.attempt(forces, t, &y, h_try, &guess, false) {
+            match self.attempt(forces, t, &y, h_try, false) {
                 Ok(a) if a.error <= 1.0 => {
                     self.recycle(a.step);
                     if last {

@@ -98,11 +98,11 @@ impl ForceCollocation {
         self.scratch.borrow_mut().spare_state = Some(y);
     }
 
-    /// Nodal forces to start Newton from: the last step's polynomial where
-    /// it covers the node, else the force at `t0` continued by its slope.
-    pub(super) fn guess(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64) -> Vec<f64> {
+    /// Nodal forces to start Newton from, into `g`: the last step's
+    /// polynomial where it covers the node, else the force at `t0`
+    /// continued by its slope.
+    fn guess(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, g: &mut [f64]) {
         let (s, nc) = (self.scheme.s, self.contacts.len());
-        let mut g = vec![0.0; nc * s];
         for c in 0..nc {
             let (p, pd) = self.coordinate(c, y0);
             let f0 = if forces.held(c) { 0.0 } else { forces.force(c, p, pd).0 };
@@ -119,12 +119,11 @@ impl ForceCollocation {
                 };
             }
         }
-        g
     }
 
     /// One step of size `h` (`cached`: a size of the ladder, whose kernels
     /// are kept).
-    pub(super) fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, guess: &[f64], cached: bool) -> Result<Attempt, NewtonFailure> {
+    pub(super) fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, cached: bool) -> Result<Attempt, NewtonFailure> {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
         self.attempts.set(self.attempts.get() + 1);
@@ -193,7 +192,7 @@ impl ForceCollocation {
             *p = DVector::zeros(ns);
             *pd = DVector::zeros(ns);
         }
-        f.copy_from_slice(guess);
+        self.guess(forces, t0, y0, h, f.as_mut_slice());
         law.clear();
         law.resize(ns, (0.0, 0.0, 0.0));
         reset(residual, ns);

@@ -114,8 +114,7 @@ impl ForceCollocation {
     #[allow(clippy::too_many_arguments)]
     fn replay_piece(&mut self, forces: &impl PointForces, a: f64, b: f64, y: &mut DVector<f64>, jac: &mut DMatrix<f64>, par: &mut DMatrix<f64>, depth: u32) -> Result<(), NewtonFailure> {
         let h = b - a;
-        let guess = self.guess(forces, a, y, h);
-        match self.attempt(forces, a, y, h, &guess, ladder(h) == h) {
+        match self.attempt(forces, a, y, h, ladder(h) == h) {
             Ok(attempt) => {
                 let (dy, dp) = self.step_sensitivity(forces, a, y, h);
                 *jac = &dy * &*jac;
