@@ -247,7 +247,8 @@ impl ForceCollocation {
         let ratio = 1.0 / (2 * GRID) as f64;
         let delta = h * ratio;
         let mut free = vec![(0.0, 0.0); INNER * n];
-        let mut modal = vec![[0.0; 2]; INNER * n * s];
+        // Summed over the modes in their order as each is marched.
+        let mut responses = vec![[0.0; 2]; INNER * nd * nc * s];
         // The load sigma^m over the k-th interval in u = (tau - tau_k) /
         // delta: sum_i C(m, i) sigma_k^(m - i) ratio^i u^i (every mode alike).
         let mut shift = [[[0.0; STAGES]; STAGES]; INNER];
@@ -286,14 +287,10 @@ impl ForceCollocation {
                 }
                 column = apply(column);
                 free[k * n + j] = (column[1] + osc.a * column[0], column[0]);
-                modal[(k * n + j) * s..(k * n + j + 1) * s].copy_from_slice(&r[..s]);
-            }
-        }
-        let mut responses = vec![[0.0; 2]; INNER * nd * nc * s];
-        for (k, point) in responses.chunks_exact_mut(nd * nc * s).enumerate() {
-            for (weights, directional) in self.watched_weights.iter().zip(point.chunks_exact_mut(s)) {
-                for (&w, rm) in weights.iter().zip(modal[k * n * s..(k + 1) * n * s].chunks_exact(s)) {
-                    for (o, x) in directional.iter_mut().zip(rm) {
+                let point = &mut responses[k * nd * nc * s..(k + 1) * nd * nc * s];
+                for (weights, directional) in self.watched_weights.iter().zip(point.chunks_exact_mut(s)) {
+                    let w = weights[j];
+                    for (o, x) in directional.iter_mut().zip(&r[..s]) {
                         o[0] += w * x[0];
                         o[1] += w * x[1];
                     }
