@@ -11,8 +11,11 @@ use super::scheme::horner;
 use super::{ForceCollocation, NewtonFailure, PointForces, Step, STAGES};
 
 /// Newton's convergence: the last correction moves every contact
-/// coordinate by less than this fraction of the tolerance.
-const NEWTON_FRACTION: f64 = 1e-3;
+/// coordinate by less than this fraction of the tolerance (what is left
+/// is a fraction of that correction). HertzStop at 20 and 32 modes:
+/// errors the same to two digits from 1e-4 to 1e-12 as with 1e-3, for
+/// 0.5 % fewer instructions.
+const NEWTON_FRACTION: f64 = 1e-2;
 const NEWTON_ITERATIONS: usize = 12;
 /// Iterations that keep the first one's Jacobian (a chord: the guess is
 /// the last step's force, so the Jacobian moves little), the rest
