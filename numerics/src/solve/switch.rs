@@ -163,15 +163,15 @@ pub fn first_switch(watch: &impl DenseWatch, t0: f64, t1: f64, after: f64) -> Op
             here_read = true;
         }
         there.read(watch, s);
-        let (start, end) = ((here.values(), here.rates()), (there.values(), there.rates()));
+        let (start, at_sample) = ((here.values(), here.rates()), (there.values(), there.rates()));
         let mut roots: Vec<(usize, f64, f64)> = Vec::new();
-        for (i, &vs) in end.0.iter().enumerate() {
+        for (i, &vs) in at_sample.0.iter().enumerate() {
             let va = start.0[i];
             // The end of the bracket: the sample, or a negative minimum before it.
             let end = if vs < 0.0 {
                 Some((s, vs))
             } else {
-                let ends = Ends { a: previous, fa: va, da: start.1[i], b: s, fb: vs, db: end.1[i] };
+                let ends = Ends { a: previous, fa: va, da: start.1[i], b: s, fb: vs, db: at_sample.1[i] };
                 negative_minimum(watch, i, ends).map(|tm| (tm, watch.value(i, tm)))
             };
             if let Some((b, vb)) = end {
