@@ -1296,3 +1296,58 @@ fn t_a_phase_s_first_step_is_held_to_its_extrapolated_top_term() {
     eprintln!("(t) 10 modes, tolerance 1e-5: tip error {:.2e} of the largest deflection", worst / largest);
     assert!(worst < 10.0 * 1e-5 * largest, "{:e} of the largest deflection", worst / largest);
 }
+
+/// (u) The outputs are read once per instant and kept
+/// (`kinds::rotating::readings`): every change of the run at one time
+/// shows in them. Just before the first separation (pressed), after it
+/// (open, the same time and state), after a restore of an earlier state
+/// into a clone, and along a run: each output against the same quantity
+/// made afresh from the integrated state.
+#[test]
+fn u_outputs_follow_every_change_at_one_instant() {
+    use beamstop::contact::Contact;
+    use beamstop::kind::Reached;
+    let spec = scene("rotating_beam");
+    let model = Arc::new(RotatingModel::new(&spec).unwrap());
+    let plane = model.surface.as_ref().expect("a surface").plane;
+    let n = model.n_modes();
+    let fresh = |sim: &RotatingSimulation| {
+        let y = sim.y();
+        let z = DVector::from_column_slice(&y.as_slice()[..n + 1]);
+        let zd = DVector::from_column_slice(&y.as_slice()[n + 1..2 * n + 2]);
+        let (penetration, _) = model.beam.plane_penetration(z.as_slice(), zd.as_slice(), &plane);
+        (z[0], zd[0], model.beam.tip_position(&z), penetration, model.beam.energy(&z, &zd))
+    };
+    let check = |sim: &RotatingSimulation, when: &str| {
+        let (theta, theta_dot, tip, penetration, energy) = fresh(sim);
+        assert_eq!(sim.theta(), theta, "{when}: theta");
+        assert_eq!(sim.theta_dot(), theta_dot, "{when}: theta'");
+        assert_eq!(sim.tip_position(), tip, "{when}: tip");
+        assert_eq!(sim.gap(), -penetration, "{when}: gap");
+        assert_eq!(sim.structure_energy(), energy, "{when}: energy");
+    };
+    let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    let reached = sim.advance(0.01, Some(&mut |_| true)).unwrap();
+    let Reached::Event(te) = reached else { panic!("an event before 0.01 s: {reached:?}") };
+    check(&sim, "before the separation");
+    assert_eq!(sim.contact_state(), Contact::Pressed, "pressed just before its end");
+    sim.advance_to(te).unwrap();
+    check(&sim, "after the separation");
+    assert_eq!(sim.contact_state(), Contact::Open, "open at the same time");
+    assert_eq!(sim.contact_force(), 0.0, "no force while open");
+    // An earlier state restored into a copy that has read its outputs.
+    let mut early = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    early.advance_to(0.5 * te).unwrap();
+    assert!(early.contact_force() > 0.0, "mid-contact");
+    let bytes = encode(&early);
+    let mut copy = sim.clone();
+    let _ = (copy.tip_position(), copy.total_energy());
+    copy = decode(model.clone(), &bytes).unwrap();
+    check(&copy, "restored");
+    assert_eq!(copy.time(), 0.5 * te);
+    assert_eq!(copy.contact_force(), early.contact_force());
+    for k in 1..=50 {
+        sim.advance_to(te + k as f64 * 1e-5).unwrap();
+        check(&sim, &format!("step {k}"));
+    }
+}

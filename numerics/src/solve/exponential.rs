@@ -43,7 +43,7 @@ use nalgebra::{DMatrix, SymmetricEigen};
 
 use super::dop853::Rhs;
 use super::oscillator::Oscillator;
-use super::phi::phi_columns;
+use super::phi::phi_columns_with;
 use super::switch::SAMPLES;
 
 /// A right-hand side that can also give the remainder `g` directly from
@@ -320,11 +320,12 @@ impl Responses {
         let sigma = tau / h;
         let mut phis = [[0.0; 2]; NODES + 1];
         for (k, osc) in modes.oscillators.iter().enumerate() {
-            let (ec, es) = osc.kernels(tau);
+            let kernels = osc.kernels_and_increment(tau);
+            let (ec, es, _) = kernels;
             let w2 = modes.omega2[k];
             let a = osc.a;
             self.free[k] = [[ec + a * es, -w2 * es], [es, ec - a * es]];
-            phi_columns(osc, tau, &mut phis);
+            phi_columns_with(osc, tau, || kernels, &mut phis);
             // (tau / h)^i from rest: i! sigma^i tau phi_{i+1}(tau A) b.
             let mut scale = tau;
             for i in 0..NODES {

@@ -22,6 +22,13 @@ use super::oscillator::Oscillator;
 /// `phi_k(tau A) b` for `k = 0..out.len()`, `out[k] = (displacement,
 /// velocity)`.
 pub fn phi_columns(osc: &Oscillator, tau: f64, out: &mut [[f64; 2]]) {
+    phi_columns_with(osc, tau, || osc.kernels_and_increment(tau), out)
+}
+
+/// [`phi_columns`] with the oscillator's kernels at `tau` (`(Ec, Es, Ec -
+/// 1)`, [`Oscillator::kernels_and_increment`]) from `kernels`, asked for
+/// only where they are used (a caller that has them already).
+pub fn phi_columns_with(osc: &Oscillator, tau: f64, kernels: impl FnOnce() -> (f64, f64, f64), out: &mut [[f64; 2]]) {
     let kmax = out.len() - 1;
     let (w2, a) = (osc.omega * osc.omega, osc.a);
     if !osc.is_underdamped() {
@@ -32,7 +39,7 @@ pub fn phi_columns(osc: &Oscillator, tau: f64, out: &mut [[f64; 2]]) {
         }
     }
     if osc.omega * tau >= 2.0 {
-        let (ec, es, ec_m1) = osc.kernels_and_increment(tau);
+        let (ec, es, ec_m1) = kernels();
         out[0] = [es, ec - a * es];
         // phi_0 b - b.
         let mut v = [es, ec_m1 - a * es];

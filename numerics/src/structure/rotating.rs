@@ -272,9 +272,10 @@ pub struct ContactTerms {
 }
 
 /// The tip in the floating frame at `(z, z')`: `[x, y] = [R + L + u_L,
-/// v_L]`, their rates, and the frame's angle as `(sin, cos)`.
+/// v_L]`, their rates, and the frame's angle as `(sin, cos)`
+/// ([`RotatingBeam::tip_at`]).
 #[derive(Clone, Copy, Debug)]
-struct TipFrame {
+pub struct TipFrame {
     x: f64,
     y: f64,
     xd: f64,
@@ -284,8 +285,14 @@ struct TipFrame {
 }
 
 impl TipFrame {
+    /// The tip's position in the fixed frame.
+    pub fn position(&self) -> [f64; 2] {
+        let (sn, cs) = (self.sn, self.cs);
+        [cs * self.x - sn * self.y, sn * self.x + cs * self.y]
+    }
+
     /// The penetration of `plane` (`-gap`) and its rate, for hub rate `thd`.
-    fn penetration(&self, thd: f64, plane: &Plane) -> (f64, f64) {
+    pub fn penetration(&self, thd: f64, plane: &Plane) -> (f64, f64) {
         let (sn, cs) = (self.sn, self.cs);
         let r = [cs * self.x - sn * self.y, sn * self.x + cs * self.y];
         let (lvx, lvy) = (self.xd - self.y * thd, self.x * thd + self.yd);
@@ -553,6 +560,12 @@ impl RotatingBeam {
     /// The tip's penetration of `plane` (`-`[`Self::plane_gap`]) and its
     /// rate at `(z, z')`, without allocation.
     pub fn plane_penetration(&self, z: &[f64], zd: &[f64], plane: &Plane) -> (f64, f64) {
+        self.tip_at(z, zd).penetration(zd[0], plane)
+    }
+
+    /// The tip in the floating frame at `(z, z')` (`z = [theta, B]`): one
+    /// product with `C_L` for its position and its rate.
+    pub fn tip_at(&self, z: &[f64], zd: &[f64]) -> TipFrame {
         let (b, bd) = (&z[1..], &zd[1..]);
         let n = b.len();
         // `C_L B` on the stack for up to 64 modes.
@@ -570,15 +583,14 @@ impl RotatingBeam {
             bdcb += bd[i] * cb[i];
         }
         let (sn, cs) = z[0].sin_cos();
-        let tip = TipFrame {
+        TipFrame {
             x: self.params.hub_radius + self.params.length - 0.5 * bcb,
             y: dot(self.w.as_slice(), b),
             xd: -bdcb,
             yd: dot(self.w.as_slice(), bd),
             sn,
             cs,
-        };
-        tip.penetration(zd[0], plane)
+        }
     }
 
     /// Solves `J z'' = Q + q_extra` (e.g. `q_extra` = a contact force) by
@@ -665,9 +677,24 @@ impl RotatingBeam {
     /// `1/2 z'^T J z' + 1/2 B^T K B + V_g`.
     pub fn energy(&self, z: &DVector<f64>, zd: &DVector<f64>) -> f64 {
         let b = self.b(z);
-        let (sn, cs) = z[0].sin_cos();
-        let vg = self.params.gravity * (self.s_1 * sn + cs * self.sigma.dot(&b) - 0.5 * sn * b.dot(&(&self.s_geo * &b)));
-        0.5 * zd.dot(&(self.mass_matrix(z) * zd)) + 0.5 * b.dot(&(&self.k * &b)) + vg
+        let bd = zd.rows(1, self.n_modes());
+        let vg = if self.params.gravity == 0.0 {
+            0.0
+        } else {
+            let (sn, cs) = z[0].sin_cos();
+            self.params.gravity * (self.s_1 * sn + cs * self.sigma.dot(&b) - 0.5 * sn * b.dot(&(&self.s_geo * &b)))
+        };
+        // `1/2 z'^T J(z) z'` by `J`'s blocks (`J` not formed).
+        let thd = zd[0];
+        let mut product = vec![0.0; b.len()];
+        let mut form = |a: &DMatrix<f64>, x: &[f64]| {
+            mat_vec(a.as_slice(), x, &mut product);
+            dot(x, &product)
+        };
+        let (b, bd) = (b.as_slice(), bd.as_slice());
+        let j00 = self.params.hub_inertia + self.j_b + form(&self.m_minus_d, b);
+        let kinetic = 0.5 * (j00 * thd * thd + 2.0 * thd * dot(self.gamma.as_slice(), bd) + form(&self.m, bd));
+        kinetic + 0.5 * form(&self.k, b) + vg
     }
 
     /// `v_L = w^T B`.
@@ -677,8 +704,11 @@ impl RotatingBeam {
 
     /// `u_L = -1/2 B^T C_L B` (0 at zeroth order).
     pub fn tip_shortening(&self, z: &DVector<f64>) -> f64 {
-        let b = self.b(z);
-        -0.5 * b.dot(&(&self.c_tip * &b))
+        self.check(z);
+        let b = &z.as_slice()[1..];
+        let mut cb = vec![0.0; b.len()];
+        mat_vec(self.c_tip.as_slice(), b, &mut cb);
+        -0.5 * dot(b, &cb)
     }
 
     /// Bending moment at the clamp, `EI sum B_i phi_i''(0)`.

@@ -162,6 +162,7 @@ impl RotatingSimulation {
             step: None,
             time: anchor_time,
             current: anchor,
+            readings: Default::default(),
             onsets,
             impulse_mark,
             peak_before_anchor,

@@ -15,6 +15,7 @@
 //!   the shared switch locator ([`crate::solve::switch`]);
 //! - [`sim`]: the run ([`RotatingSimulation`]): steps, switches, restarts,
 //!   outputs;
+//! - `readings`: what the outputs read at one instant, made once;
 //! - [`codec`]: the run's versioned encoding, replayed on decode;
 //! - [`flow`]: a run with a periodically prescribed hub as a map of its
 //!   modal state, and that map's Jacobian (periodic orbits);
@@ -34,6 +35,7 @@ pub mod frozen;
 pub mod flow;
 pub mod interface;
 pub mod model;
+mod readings;
 pub mod sim;
 pub mod spec;
 pub mod stepper;

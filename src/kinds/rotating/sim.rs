@@ -43,12 +43,14 @@
 //! [`super::spec::SolverSpec::integration_rtol`] makes of
 //! `solver.tolerance`.
 
+use std::cell::RefMut;
 use std::sync::Arc;
 
 use nalgebra::DVector;
 
 use super::events::StepCurve;
 use super::model::RotatingModel;
+use super::readings::{Reading, Readings};
 use super::spec::RotatingSpec;
 use super::system::{ContactPoint, Phase};
 use crate::contact::{Contact, Switch, Watch};
@@ -149,6 +151,8 @@ pub struct RotatingSimulation {
     /// While recorded (the flow's Jacobian, [`super::flow`]): the end of
     /// every accepted step since the last switch.
     pub(super) trace: Option<Vec<f64>>,
+    /// What the outputs read now, made once per instant.
+    pub(super) readings: Readings,
 }
 
 pub use crate::solve::REANCHOR_AFTER;
@@ -207,6 +211,7 @@ impl RotatingSimulation {
             stats: RotatingStats::default(),
             steps_since_anchor: 0,
             trace: None,
+            readings: Readings::default(),
         };
         let mut contact = Contact::Open;
         if let Some(s) = &model.surface {
@@ -595,12 +600,17 @@ impl RotatingSimulation {
 
     /// `(z, z') = ([theta, B], [theta', B'])` now.
     pub fn coordinates(&self) -> (DVector<f64>, DVector<f64>) {
-        self.phase.coords(self.time, &self.current)
+        let now = self.now();
+        (now.z.clone(), now.zd.clone())
+    }
+
+    /// The present instant's readings.
+    fn now(&self) -> RefMut<'_, Reading> {
+        self.readings.at(&self.phase, self.time, &self.current)
     }
 
     fn contact_now(&self) -> ContactPoint {
-        let (z, zd) = self.coordinates();
-        self.phase.contact_point(&z, &zd)
+        self.now().point(&self.phase)
     }
 
     pub fn contact_state(&self) -> Contact {
@@ -608,27 +618,27 @@ impl RotatingSimulation {
     }
 
     pub fn theta(&self) -> f64 {
-        self.coordinates().0[0]
+        self.now().z[0]
     }
 
     pub fn theta_dot(&self) -> f64 {
-        self.coordinates().1[0]
+        self.now().zd[0]
     }
 
     /// Tip deflection `v_L` in the rotating frame, m.
     pub fn tip_deflection(&self) -> f64 {
-        self.model.beam.tip_deflection(&self.coordinates().0)
+        self.model.beam.tip_deflection(&self.now().z)
     }
 
     /// Tip position in the fixed frame, m.
     pub fn tip_position(&self) -> [f64; 2] {
-        self.model.beam.tip_position(&self.coordinates().0)
+        self.now().tip_position(&self.phase)
     }
 
     /// Tip velocity in the fixed frame, m/s.
     pub fn tip_velocity(&self) -> [f64; 2] {
-        let (z, zd) = self.coordinates();
-        self.model.beam.tip_velocity(&z, &zd)
+        let now = self.now();
+        self.model.beam.tip_velocity(&now.z, &now.zd)
     }
 
     /// The force the surface pushes the tip with now, N.
@@ -684,13 +694,12 @@ impl RotatingSimulation {
 
     /// Bending moment at the clamp, N m.
     pub fn root_moment(&self) -> f64 {
-        self.model.beam.root_moment(&self.coordinates().0)
+        self.model.beam.root_moment(&self.now().z)
     }
 
     /// Kinetic, strain and gravity energy of hub and beam, J.
     pub fn structure_energy(&self) -> f64 {
-        let (z, zd) = self.coordinates();
-        self.model.beam.energy(&z, &zd)
+        self.now().energy(&self.phase)
     }
 
     /// Structure plus the energy stored in the contact, J.
@@ -700,15 +709,15 @@ impl RotatingSimulation {
 
     /// Angular momentum about the axis, `(J z')_theta`, kg m^2/s.
     pub fn angular_momentum(&self) -> f64 {
-        let (z, zd) = self.coordinates();
-        (self.model.beam.mass_matrix(&z) * zd)[0]
+        let now = self.now();
+        (self.model.beam.mass_matrix(&now.z) * &now.zd)[0]
     }
 
     /// The hub torque: the input, or what the prescribed motion needs, N m.
     pub fn hub_torque(&self) -> f64 {
-        let (z, zd) = self.coordinates();
-        let c = self.phase.contact_point(&z, &zd);
-        self.phase.hub_torque(self.time, &z, &zd, &c)
+        let mut now = self.now();
+        let c = now.point(&self.phase);
+        self.phase.hub_torque(self.time, &now.z, &now.zd, &c)
     }
 }
 

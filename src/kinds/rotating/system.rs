@@ -74,7 +74,10 @@ impl Phase {
     pub fn coords(&self, t: f64, y: &DVector<f64>) -> (DVector<f64>, DVector<f64>) {
         let n = self.n();
         match self.model.prescribed() {
-            None => (y.rows(0, n + 1).into_owned(), y.rows(n + 1, n + 1).into_owned()),
+            None => {
+                let y = y.as_slice();
+                (DVector::from_column_slice(&y[..n + 1]), DVector::from_column_slice(&y[n + 1..2 * n + 2]))
+            }
             Some(p) => {
                 let (th, thd, _) = p.at(t);
                 let mut z = DVector::zeros(n + 1);
