@@ -1,6 +1,7 @@
 //! The exact motion of a coupled phase from an anchor: the complex
 //! coordinates in closed form, the modal state and its time integral.
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
 use nalgebra::DVector;
@@ -43,6 +44,10 @@ pub struct CoupledSegment {
     offset: DVector<f64>,
     y0: DVector<f64>,
     yd0: DVector<f64>,
+    /// The last [`Self::integral_q`], by time: a stop's impulse is asked
+    /// for at a communication point's end and again as the next one's
+    /// start (a run's outputs, then its next step's mark).
+    integral: RefCell<Option<(f64, DVector<f64>)>>,
 }
 
 impl CoupledSegment {
@@ -62,7 +67,16 @@ impl CoupledSegment {
     /// The motion from `(t0, start)` under a phase's projected loads.
     pub fn start(sys: &CoupledSystem, loads: Arc<PhaseLoads>, t0: f64, start: &ModalState) -> Self {
         let empty = DVector::zeros(0);
-        let mut segment = CoupledSegment { t0, loads: loads.clone(), z0: DVector::zeros(0), started: Vec::new(), offset: empty.clone(), y0: empty.clone(), yd0: empty };
+        let mut segment = CoupledSegment {
+            t0,
+            loads: loads.clone(),
+            z0: DVector::zeros(0),
+            started: Vec::new(),
+            offset: empty.clone(),
+            y0: empty.clone(),
+            yd0: empty,
+            integral: RefCell::new(None),
+        };
         segment.restart(sys, loads, t0, start);
         segment
     }
@@ -74,6 +88,7 @@ impl CoupledSegment {
         let len = sys.eig.len();
         self.t0 = t0;
         self.loads = loads;
+        self.integral = RefCell::new(None);
         let loads = &self.loads;
         // Z^T x by `tr_mul_to`: no transposed copy of Z per phase.
         sized(&mut self.offset, start.q.len());
@@ -181,6 +196,17 @@ impl CoupledSegment {
     /// (`S = t - t0`, `e[..]` the divided differences of the exponential).
     /// The stops' impulses over a phase are linear in it.
     pub fn integral_q(&self, sys: &CoupledSystem, t: f64) -> DVector<f64> {
+        if let Some((at, iq)) = self.integral.borrow().as_ref() {
+            if at.to_bits() == t.to_bits() {
+                return iq.clone();
+            }
+        }
+        let iq = self.integral_q_uncached(sys, t);
+        *self.integral.borrow_mut() = Some((t, iq.clone()));
+        iq
+    }
+
+    fn integral_q_uncached(&self, sys: &CoupledSystem, t: f64) -> DVector<f64> {
         let s = t - self.t0;
         let n = sys.n_free();
         let zero = C64::new(0.0, 0.0);
