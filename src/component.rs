@@ -53,6 +53,7 @@ impl Component {
     fn load(kind: &'static dyn Kind, value: Json) -> Result<Component, String> {
         crate::contact::check_laws_built(&value)?;
         let scene: Arc<dyn Scene> = Arc::from(kind.load(&value)?);
+        crate::kind::check_scene_name(scene.name())?;
         let json = serde_json::from_str(&scene.canonical()).map_err(|e| format!("scene: canonical form: {e}"))?;
         let variables = Arc::new(scene.variables());
         Ok(Component { kind, json, scene: Ok(scene), variables })

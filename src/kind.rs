@@ -64,6 +64,19 @@ pub fn kind_of(scene: &Json) -> Result<&'static dyn Kind, String> {
     }
 }
 
+/// Whether `name` can be a scene's name: an FMU's model identifier names
+/// its binary and prefixes its C symbols, so it must be a C identifier
+/// (every kind's scenes; checked where a scene file is read).
+pub fn check_scene_name(name: &str) -> Result<(), String> {
+    let identifier = !name.is_empty()
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        && !name.starts_with(|c: char| c.is_ascii_digit());
+    if identifier {
+        return Ok(());
+    }
+    Err(format!("name = {name:?}: must be a C identifier (letters, digits, '_', not starting with a digit)"))
+}
+
 /// A validated scene of some kind: its variables, and runs of it.
 pub trait Scene: Send + Sync + fmt::Debug {
     fn name(&self) -> &str;

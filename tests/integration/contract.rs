@@ -44,7 +44,22 @@ fn the_shipped_kinds_are_registered() {
     assert!(e.contains("modal") && e.contains("rotating"), "{e}");
 }
 
-/// A state-changing event (not a graze).
+/// A scene's name is its FMU's model identifier: every kind refuses one
+/// that is not a C identifier, naming the field and the value.
+#[test]
+fn every_kind_refuses_a_name_that_is_not_a_c_identifier() {
+    for file in ["pinned_beam", "hertz_stop", "rotating_beam", "spin_up", "tapping_arm"] {
+        let mut scene: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(format!("{ROOT}/scenes/{file}.json")).unwrap()).unwrap();
+        for bad in ["R6_1e-8", "6modes", "", "tip w"] {
+            scene["name"] = bad.into();
+            let message = Component::from_json(&scene.to_string()).unwrap_err();
+            assert!(message.contains(&format!("name = {bad:?}")) && message.contains("C identifier"), "{file}, {bad:?}: {message}");
+        }
+        scene["name"] = "_Beam_2".into();
+        Component::from_json(&scene.to_string()).unwrap();
+    }
+}
+
 #[test]
 fn a_scene_two_kinds_recognize_is_refused_naming_both() {
     let modal: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(format!("{ROOT}/scenes/pinned_beam.json")).unwrap()).unwrap();
@@ -55,6 +70,7 @@ fn a_scene_two_kinds_recognize_is_refused_naming_both() {
     assert!(message.contains("modal") && message.contains("rotating"), "{message}");
 }
 
+/// A state-changing event (not a graze).
 fn changes(class: EventClass) -> bool {
     !matches!(class, EventClass::Graze)
 }

@@ -508,15 +508,7 @@ impl Scene {
     /// Structural validation: the parts of a scene that fit together (the
     /// values' ranges are checked by `Scene::validate`, in `crate::kinds::modal::interface`).
     pub fn validate_structure(&self) -> Result<(), SceneError> {
-        if self.name.is_empty()
-            || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-            || self.name.starts_with(|c: char| c.is_ascii_digit())
-        {
-            return err(format!(
-                "name = {:?}: must be a C identifier (letters, digits, '_', not starting with a digit)",
-                self.name
-            ));
-        }
+        crate::kind::check_scene_name(&self.name).map_err(SceneError)?;
         let n = self.n_modes();
         match &self.structure {
             StructureSpec::Beam { .. } => {
