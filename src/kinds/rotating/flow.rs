@@ -7,11 +7,12 @@
 //! **Internal differentiation.** Nothing here is closed form, so the
 //! Jacobian is that of the integration itself, phase by phase (a phase
 //! runs from one switch of the contact law to the next). The nominal run
-//! records the end of every accepted step ([`RotatingSimulation::trace`]);
+//! records the end of every accepted step ([`RotatingSimulation::trace`],
+//! whichever integrator made them: `solver.method`);
 //! each phase's transition matrix comes from a *replay*: DOP853 stepped
 //! without error control over exactly those step ends from the phase's
-//! start, the state at the phase's end (inside a step) taken as the
-//! nominal run takes it ([`super::stepper::full_order_state`]), together
+//! start, the state at the phase's end (inside a step) taken by DOP853's
+//! full-order state there ([`super::stepper::full_order_state`]), together
 //! with its variational equations `V' = (df/dy) V` (the phase's analytic
 //! Jacobian, [`super::system`]) in the same Runge-Kutta stages: the exact
 //! derivative of the replayed map, a fixed composition of Runge-Kutta
@@ -49,17 +50,15 @@
 //!
 //! Refused, with the reason: a torque-driven hub (its angle is a state and
 //! nothing drives it periodically: its runs have no period to shoot over)
-//! and a spin-up (not periodic); other integrators than DOP853 (the
-//! replay repeats DOP853's steps; `solver.method` `dop853` or `auto` below
-//! 24 modes).
+//! and a spin-up (not periodic).
 
 use nalgebra::{DMatrix, DVector};
 
 use super::model::HubMotion;
 use super::sim::RotatingSimulation;
-use super::stepper::{dop853_tolerances, Method};
+use super::stepper::dop853_tolerances;
 #[cfg(test)]
-use super::stepper::{full_order_state, PhaseRhs};
+use super::stepper::{full_order_state, Method, PhaseRhs};
 use super::system::Phase;
 use crate::contact::Contact;
 use crate::error::SimError;
@@ -223,13 +222,7 @@ pub fn flow_unsupported(model: &super::RotatingModel) -> Option<String> {
                 .into(),
         ),
         Some(HubMotion::SpinUp(_)) => Some("the hub's spin-up is not periodic (prescribe a harmonic swing, hub.prescribed.type = harmonic)".into()),
-        Some(HubMotion::Swing(_)) => match model.spec.solver.method.resolve() {
-            Method::Dop853 => None,
-            other => Some(format!(
-                "its Jacobian replays DOP853's steps, and solver.method resolves to {other:?} at {} modes: set solver.method to dop853",
-                model.n_modes()
-            )),
-        },
+        Some(HubMotion::Swing(_)) => None,
     }
 }
 
