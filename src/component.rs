@@ -147,7 +147,11 @@ impl Component {
         if written == Ok(false) && self.scene.is_ok() {
             return;
         }
+        let shared = self.scene.as_ref().ok().and_then(|scene| scene.shared());
         self.scene = written.and_then(|_| self.kind.load(&self.json).map(Arc::from));
+        if let (Ok(scene), Some(shared)) = (&self.scene, shared) {
+            scene.inherit(shared);
+        }
     }
 
     /// A run from the scene's initial state at `start_time` (a message

@@ -12,6 +12,7 @@
 
 use std::any::Any;
 use std::fmt;
+use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 use serde_json::Value as Json;
@@ -103,6 +104,20 @@ pub trait Scene: Send + Sync + fmt::Debug {
     fn start_from_state(&self, start_time: f64, inputs: &[f64], state: &[f64]) -> Result<Box<dyn Run>, SimError> {
         let _ = (start_time, inputs, state);
         Err(SimError::Unsupported("a run from a given state is for shooting, which needs an exact flow: this kind integrates".into()))
+    }
+    /// What this scene's runs have computed that is found by its content
+    /// and so holds for any scene (the modal kind: its contact phases'
+    /// decompositions, found by their matrices bit for bit), for the scene
+    /// that replaces this one when a value changes ([`Self::inherit`]):
+    /// a sweep's next point or an FMU's new parameters do not compute it
+    /// again. `None`: nothing.
+    fn shared(&self) -> Option<Arc<dyn Any + Send + Sync>> {
+        None
+    }
+    /// Takes over [`Self::shared`] of the scene this one replaces (before
+    /// its first run).
+    fn inherit(&self, shared: Arc<dyn Any + Send + Sync>) {
+        let _ = shared;
     }
     /// Carries a run of this kind over to this scene's (tunable) values.
     fn retune(&self, run: &mut dyn Run) -> Result<(), SimError> {

@@ -167,8 +167,22 @@ pub struct Beam {
 
 impl Beam {
     pub fn new(support: Support, n_modes: usize, length: f64, mass_per_length: f64, bending_stiffness: f64) -> Self {
-        let modes: Vec<DimensionlessMode> = (1..=n_modes).map(|j| DimensionlessMode::new(support, j)).collect();
-        let integrals = modes.iter().enumerate().map(|(j, m)| integrate(|xi| m.derivative(0, xi), 8 * (j + 3))).collect();
+        Self::new_with(support, n_modes, length, mass_per_length, bending_stiffness, None)
+    }
+
+    /// [`Self::new`] with the dimensionless modes and their integrals of
+    /// `earlier` (pure functions of the support and the mode's number:
+    /// those of a beam built before, used when it has the same support and
+    /// at least as many modes) instead of computing them again.
+    pub fn new_with(support: Support, n_modes: usize, length: f64, mass_per_length: f64, bending_stiffness: f64, earlier: Option<&Beam>) -> Self {
+        let (modes, integrals) = match earlier {
+            Some(b) if b.support == support && b.modes.len() >= n_modes => (b.modes[..n_modes].to_vec(), b.integrals[..n_modes].to_vec()),
+            _ => {
+                let modes: Vec<DimensionlessMode> = (1..=n_modes).map(|j| DimensionlessMode::new(support, j)).collect();
+                let integrals = modes.iter().enumerate().map(|(j, m)| integrate(|xi| m.derivative(0, xi), 8 * (j + 3))).collect();
+                (modes, integrals)
+            }
+        };
         Beam { support, length, mass_per_length, bending_stiffness, modes, integrals }
     }
 

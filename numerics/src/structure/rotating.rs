@@ -326,6 +326,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 impl RotatingBeam {
     pub fn new(params: RotatingBeamParams) -> Result<Self, String> {
+        Self::new_with(params, None)
+    }
+
+    /// [`Self::new`] with the modal integrals `earlier` (a pure function
+    /// of the number of modes: those of a beam built before, used when
+    /// they are for as many modes) instead of integrating them again.
+    pub fn new_with(params: RotatingBeamParams, earlier: Option<&DimensionlessIntegrals>) -> Result<Self, String> {
         let p = &params;
         let n = p.n_modes;
         let positive = [("length", p.length), ("mass_per_length", p.mass_per_length), ("bending_stiffness", p.bending_stiffness)];
@@ -351,7 +358,10 @@ impl RotatingBeam {
         if let Some(z) = zeta.iter().find(|z| !(**z >= 0.0 && z.is_finite())) {
             return Err(format!("rotating beam: damping ratio {z} must be >= 0"));
         }
-        let hat = DimensionlessIntegrals::new(n);
+        let hat = match earlier {
+            Some(hat) if hat.beta.len() == n => hat.clone(),
+            _ => DimensionlessIntegrals::new(n),
+        };
         let (l, mu, ei, r) = (p.length, p.mass_per_length, p.bending_stiffness, p.hub_radius);
         let m = &hat.m * (mu * l);
         let k = &hat.k * (ei / l.powi(3));

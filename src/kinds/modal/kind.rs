@@ -2,7 +2,8 @@
 //! simulation ([`crate::kinds::modal::sim`]): scene files with a `structure`, exact
 //! between events.
 
-use std::sync::{Arc, OnceLock};
+use std::any::Any;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::{DMatrix, DVector};
 use serde_json::Value as Json;
@@ -10,7 +11,7 @@ use serde_json::Value as Json;
 use crate::codec::{Reader, Writer};
 use crate::kinds::modal::interface::{self, OutputKey};
 use crate::kind::{Clearance, EventClass, EventRecord, Flow, Kind, Reached, Run, Scene, SimError, Surface, Work};
-use crate::kinds::modal::model::Model;
+use crate::kinds::modal::model::{Model, Shared};
 use crate::kinds::modal::readout;
 use crate::kinds::modal::sim::{EventKind, Simulation};
 use crate::variables::{Experiment, Value, Variables};
@@ -30,7 +31,7 @@ impl Kind for ModalKind {
         let scene: crate::kinds::modal::scene::Scene = serde_json::from_value(scene.clone()).map_err(|e| format!("scene: {e}"))?;
         scene.validate().map_err(|e| e.0)?;
         let outputs = interface::outputs(&scene).into_iter().map(|(key, _)| key).collect();
-        Ok(Box::new(ModalScene { scene, outputs, model: OnceLock::new() }))
+        Ok(Box::new(ModalScene { scene, outputs, model: OnceLock::new(), inherited: Mutex::new(None) }))
     }
 }
 
@@ -42,17 +43,40 @@ struct ModalScene {
     /// The model, built once for every run of this scene (a master that
     /// restores states over and over pays for it once).
     model: OnceLock<Result<Model, String>>,
+    /// What the model of the scene this one replaced holds for this one's
+    /// ([`Scene::inherit`]), for the model when it is built.
+    inherited: Mutex<Option<Shared>>,
 }
 
 impl ModalScene {
     fn model(&self) -> Result<Model, SimError> {
-        self.model.get_or_init(|| Model::build(&self.scene).map_err(|e| e.0)).clone().map_err(SimError::Scene)
+        self.model
+            .get_or_init(|| {
+                let earlier = self.inherited.lock().unwrap_or_else(|e| e.into_inner()).take().unwrap_or_default();
+                Model::build_with(&self.scene, earlier).map_err(|e| e.0)
+            })
+            .clone()
+            .map_err(SimError::Scene)
     }
 }
 
 impl Scene for ModalScene {
     fn name(&self) -> &str {
         &self.scene.name
+    }
+
+    fn shared(&self) -> Option<Arc<dyn Any + Send + Sync>> {
+        let shared = match self.model.get() {
+            Some(Ok(model)) => Some(model.shared()),
+            _ => self.inherited.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+        };
+        shared.map(|s| Arc::new(s) as Arc<dyn Any + Send + Sync>)
+    }
+
+    fn inherit(&self, shared: Arc<dyn Any + Send + Sync>) {
+        if let (Some(shared), None) = (shared.downcast_ref::<Shared>(), self.model.get()) {
+            *self.inherited.lock().unwrap_or_else(|e| e.into_inner()) = Some(shared.clone());
+        }
     }
 
     fn description(&self) -> &str {

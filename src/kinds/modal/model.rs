@@ -33,6 +33,26 @@ pub struct SensorModel {
     pub moment: Option<DVector<f64>>,
 }
 
+/// What a model computed that holds for other scenes too, found by its
+/// content: handed from a component's model to the next one when its
+/// values change ([`crate::kind::Scene::shared`]).
+#[derive(Clone, Debug, Default)]
+pub struct Shared {
+    pub phase_systems: SystemCache,
+    pub beam: Option<Beam>,
+}
+
+impl Model {
+    /// What a model built after this one can take over ([`Shared`]).
+    pub fn shared(&self) -> Shared {
+        let beam = match &self.structure {
+            Structure::Beam(b) => Some(b.clone()),
+            _ => None,
+        };
+        Shared { phase_systems: self.phase_systems.clone(), beam }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
     pub structure: Structure,
@@ -196,6 +216,14 @@ impl Model {
     }
 
     pub fn build(scene: &Scene) -> Result<Model, SceneError> {
+        Self::build_with(scene, Shared::default())
+    }
+
+    /// [`Self::build`] with what `earlier` holds: the contact phases'
+    /// decompositions (found by their matrices) and the beam's
+    /// dimensionless modes (by support and number).
+    pub fn build_with(scene: &Scene, earlier: Shared) -> Result<Model, SceneError> {
+        let Shared { phase_systems, beam: earlier_beam } = earlier;
         scene.validate()?;
         let structure = match &scene.structure {
             StructureSpec::Beam { support, modes, .. } => {
@@ -206,7 +234,7 @@ impl Model {
                     SupportKind::ClampedClamped => Support::ClampedClamped,
                     SupportKind::ClampedPinned => Support::ClampedPinned,
                 };
-                Structure::Beam(Beam::new(support, *modes, section.length, section.mass_per_length, section.bending_stiffness))
+                Structure::Beam(Beam::new_with(support, *modes, section.length, section.mass_per_length, section.bending_stiffness, earlier_beam.as_ref()))
             }
             StructureSpec::Chain { masses, m, k, c } => Structure::Chain(Chain::new(*masses, *m, *k, *c)),
         };
@@ -301,7 +329,7 @@ impl Model {
             energy_balance: scene.outputs.energy_balance,
             impulses: scene.outputs.impulse,
             transfer,
-            phase_systems: SystemCache::default(),
+            phase_systems,
         };
         model.prepare_compliant_phases()?;
         Ok(model)

@@ -1,7 +1,8 @@
 //! The rotating hub beam as a kind of simulation ([`crate::kinds::rotating`]):
 //! scene files with a `beam` and no `structure`, integrated throughout.
 
-use std::sync::{Arc, OnceLock};
+use std::any::Any;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use serde_json::Value as Json;
 
@@ -10,6 +11,7 @@ use crate::codec::{Reader, Writer};
 use crate::kind::{Clearance, Flow, Surface};
 use crate::kind::{EventClass, EventRecord, Kind, Reached, Run, Scene, SimError, Work};
 use crate::kinds::rotating::interface::{self, RotatingOutput};
+use crate::structure::rotating::DimensionlessIntegrals;
 use crate::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use crate::variables::{Experiment, Value, Variables};
 
@@ -28,7 +30,7 @@ impl Kind for RotatingKind {
         let spec: RotatingSpec = serde_json::from_value(scene.clone()).map_err(|e| format!("rotating scene: {e}"))?;
         spec.validate()?;
         let outputs = interface::outputs(&spec).into_iter().map(|(key, _)| key).collect();
-        Ok(Box::new(RotatingScene { spec, outputs, model: OnceLock::new() }))
+        Ok(Box::new(RotatingScene { spec, outputs, model: OnceLock::new(), inherited: Mutex::new(None) }))
     }
 }
 
@@ -39,17 +41,40 @@ struct RotatingScene {
     outputs: Arc<[RotatingOutput]>,
     /// The model, built once for every run of this scene.
     model: OnceLock<Result<Arc<RotatingModel>, String>>,
+    /// The modal integrals of the scene this one replaced
+    /// ([`Scene::inherit`]: a pure function of the number of modes), for
+    /// the model when it is built.
+    inherited: Mutex<Option<Arc<DimensionlessIntegrals>>>,
 }
 
 impl RotatingScene {
     fn model(&self) -> Result<Arc<RotatingModel>, String> {
-        self.model.get_or_init(|| RotatingModel::new(&self.spec).map(Arc::new)).clone()
+        self.model
+            .get_or_init(|| {
+                let earlier = self.inherited.lock().unwrap_or_else(|e| e.into_inner()).take();
+                RotatingModel::new_with(&self.spec, earlier.as_deref()).map(Arc::new)
+            })
+            .clone()
     }
 }
 
 impl Scene for RotatingScene {
     fn name(&self) -> &str {
         &self.spec.name
+    }
+
+    fn shared(&self) -> Option<Arc<dyn Any + Send + Sync>> {
+        let hat = match self.model.get() {
+            Some(Ok(model)) => Some(Arc::new(model.beam.hat.clone())),
+            _ => self.inherited.lock().unwrap_or_else(|e| e.into_inner()).clone(),
+        };
+        hat.map(|h| h as Arc<dyn Any + Send + Sync>)
+    }
+
+    fn inherit(&self, shared: Arc<dyn Any + Send + Sync>) {
+        if let (Ok(hat), None) = (shared.downcast::<DimensionlessIntegrals>(), self.model.get()) {
+            *self.inherited.lock().unwrap_or_else(|e| e.into_inner()) = Some(hat);
+        }
     }
 
     fn description(&self) -> &str {

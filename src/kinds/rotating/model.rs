@@ -8,7 +8,7 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use super::frozen::FrozenMemo;
 use super::spec::{HubDrive, OrderSpec, Profile, RotatingSpec};
 use crate::contact::Law;
-use crate::structure::rotating::{Order, Plane, RotatingBeam, RotatingBeamParams};
+use crate::structure::rotating::{DimensionlessIntegrals, Order, Plane, RotatingBeam, RotatingBeamParams};
 
 /// The plane and its law.
 #[derive(Clone, Debug)]
@@ -120,6 +120,13 @@ pub struct RotatingModel {
 impl RotatingModel {
     /// The model of a scene; the error (a scene that cannot form one) names the field.
     pub fn new(spec: &RotatingSpec) -> Result<Self, String> {
+        Self::new_with(spec, None)
+    }
+
+    /// [`Self::new`] with the modal integrals of a model built before
+    /// (used when they are for as many modes: a pure function of that
+    /// number).
+    pub fn new_with(spec: &RotatingSpec, earlier: Option<&DimensionlessIntegrals>) -> Result<Self, String> {
         spec.validate()?;
         let n = spec.n_modes;
         let (mu, ei) = spec.section();
@@ -138,7 +145,7 @@ impl RotatingModel {
             n_modes: n,
             order,
         };
-        let beam = RotatingBeam::new(params).map_err(|e| format!("rotating scene '{}': {e}", spec.name))?;
+        let beam = RotatingBeam::new_with(params, earlier).map_err(|e| format!("rotating scene '{}': {e}", spec.name))?;
         let surface = match &spec.surface {
             None => None,
             Some(s) => Some(Surface {
