@@ -4,6 +4,7 @@
 //! it, so the layers above read and write parameters the same way for
 //! every kind, and ask the kind for runs.
 
+use std::any::Any;
 use std::sync::Arc;
 
 use serde_json::Value as Json;
@@ -22,6 +23,9 @@ pub struct Component {
     scene: Result<Arc<dyn Scene>, String>,
     /// Fixed by the scene's structure.
     variables: Arc<Variables>,
+    /// What the last valid scene's model computed for the next one
+    /// ([`Scene::shared`]), while the current values form none.
+    carried: Option<Arc<dyn Any + Send + Sync>>,
 }
 
 impl std::fmt::Debug for Component {
@@ -56,7 +60,7 @@ impl Component {
         crate::kind::check_scene_name(scene.name())?;
         let json = serde_json::from_str(&scene.canonical()).map_err(|e| format!("scene: canonical form: {e}"))?;
         let variables = Arc::new(scene.variables());
-        Ok(Component { kind, json, scene: Ok(scene), variables })
+        Ok(Component { kind, json, scene: Ok(scene), variables, carried: None })
     }
 
     /// The kind's scene; an error when the current values do not form one.
@@ -147,10 +151,12 @@ impl Component {
         if written == Ok(false) && self.scene.is_ok() {
             return;
         }
-        let shared = self.scene.as_ref().ok().and_then(|scene| scene.shared());
+        let shared = self.scene.as_ref().ok().and_then(|scene| scene.shared()).or_else(|| self.carried.take());
         self.scene = written.and_then(|_| self.kind.load(&self.json).map(Arc::from));
-        if let (Ok(scene), Some(shared)) = (&self.scene, shared) {
-            scene.inherit(shared);
+        match (&self.scene, shared) {
+            (Ok(scene), Some(shared)) => scene.inherit(shared),
+            (Err(_), shared) => self.carried = shared,
+            (Ok(_), None) => {}
         }
     }
 

@@ -92,7 +92,11 @@ fn a_scene_read_again_after_a_change_runs_as_a_fresh_one() {
                 changed.start(0.0, &inputs).unwrap().advance_to(horizon).unwrap();
             }
             let value = changed.get(index) * factor;
+            // A value out of its range in between: no scene, then one again.
+            changed.set(index, f64::NAN);
+            assert!(changed.scene().is_err(), "{file}: {parameter} = NaN is refused");
             changed.set(index, value);
+            assert!(changed.scene().unwrap().shared().is_some(), "{file}: the new scene holds what the last valid one's model computed");
             let fresh = Component::from_json(&changed.canonical_json()).unwrap();
             let (mut a, mut b) = (changed.start(0.0, &inputs).unwrap(), fresh.start(0.0, &inputs).unwrap());
             a.advance_to(horizon).unwrap();
