@@ -11,7 +11,7 @@ use crate::codec::{Reader, Writer};
 use crate::kind::{Clearance, Flow, Surface};
 use crate::kind::{EventClass, EventRecord, Kind, Reached, Run, Scene, SimError, Work};
 use crate::kinds::rotating::interface::{self, RotatingOutput};
-use crate::structure::rotating::DimensionlessIntegrals;
+use crate::kinds::rotating::model::Shared;
 use crate::kinds::rotating::{RotatingEventKind, RotatingModel, RotatingSimulation, RotatingSpec};
 use crate::variables::{Experiment, Value, Variables};
 
@@ -41,10 +41,9 @@ struct RotatingScene {
     outputs: Arc<[RotatingOutput]>,
     /// The model, built once for every run of this scene.
     model: OnceLock<Result<Arc<RotatingModel>, String>>,
-    /// The modal integrals of the scene this one replaced
-    /// ([`Scene::inherit`]: a pure function of the number of modes), for
-    /// the model when it is built.
-    inherited: Mutex<Option<Arc<DimensionlessIntegrals>>>,
+    /// What the model of the scene this one replaced holds for this one's
+    /// ([`Scene::inherit`]), for the model when it is built.
+    inherited: Mutex<Option<Arc<Shared>>>,
 }
 
 impl RotatingScene {
@@ -64,16 +63,16 @@ impl Scene for RotatingScene {
     }
 
     fn shared(&self) -> Option<Arc<dyn Any + Send + Sync>> {
-        let hat = match self.model.get() {
-            Some(Ok(model)) => Some(Arc::new(model.beam.hat.clone())),
+        let shared = match self.model.get() {
+            Some(Ok(model)) => Some(Arc::new(model.shared())),
             _ => self.inherited.lock().unwrap_or_else(|e| e.into_inner()).clone(),
         };
-        hat.map(|h| h as Arc<dyn Any + Send + Sync>)
+        shared.map(|s| s as Arc<dyn Any + Send + Sync>)
     }
 
     fn inherit(&self, shared: Arc<dyn Any + Send + Sync>) {
-        if let (Ok(hat), None) = (shared.downcast::<DimensionlessIntegrals>(), self.model.get()) {
-            *self.inherited.lock().unwrap_or_else(|e| e.into_inner()) = Some(hat);
+        if let (Ok(shared), None) = (shared.downcast::<Shared>(), self.model.get()) {
+            *self.inherited.lock().unwrap_or_else(|e| e.into_inner()) = Some(shared);
         }
     }
 

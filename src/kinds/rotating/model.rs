@@ -98,6 +98,18 @@ pub enum Drive {
     Prescribed(HubMotion),
 }
 
+/// What a model computed that holds for other scenes too, found by
+/// content: handed from a component's model to the next one when its
+/// values change ([`crate::kind::Scene::shared`]).
+#[derive(Clone, Debug)]
+pub struct Shared {
+    /// A function of the number of modes.
+    pub integrals: DimensionlessIntegrals,
+    /// The frozen linear parts, with the beam's parameters and whether the
+    /// hub was prescribed: what they are a function of.
+    pub frozen: (RotatingBeamParams, bool, FrozenMemo),
+}
+
 #[derive(Clone, Debug)]
 pub struct RotatingModel {
     pub spec: RotatingSpec,
@@ -123,10 +135,12 @@ impl RotatingModel {
         Self::new_with(spec, None)
     }
 
-    /// [`Self::new`] with the modal integrals of a model built before
-    /// (used when they are for as many modes: a pure function of that
-    /// number).
-    pub fn new_with(spec: &RotatingSpec, earlier: Option<&DimensionlessIntegrals>) -> Result<Self, String> {
+    /// [`Self::new`] with what a model built before holds for this one
+    /// ([`Shared`]): its modal integrals (when they are for as many modes:
+    /// a pure function of that number) and its frozen linear parts (when
+    /// the beam's parameters and the hub's kind are the same: a pure
+    /// function of them and the grid point).
+    pub fn new_with(spec: &RotatingSpec, earlier: Option<&Shared>) -> Result<Self, String> {
         spec.validate()?;
         let n = spec.n_modes;
         let (mu, ei) = spec.section();
@@ -145,7 +159,7 @@ impl RotatingModel {
             n_modes: n,
             order,
         };
-        let beam = RotatingBeam::new_with(params, earlier).map_err(|e| format!("rotating scene '{}': {e}", spec.name))?;
+        let beam = RotatingBeam::new_with(params, earlier.map(|e| &e.integrals)).map_err(|e| format!("rotating scene '{}': {e}", spec.name))?;
         let surface = match &spec.surface {
             None => None,
             Some(s) => Some(Surface {
@@ -175,7 +189,17 @@ impl RotatingModel {
         initial_zd[0] = spec.initial.theta_dot;
         initial_z.rows_mut(1, n).copy_from(&b);
         initial_zd.rows_mut(1, n).copy_from(&bd);
-        Ok(RotatingModel { spec: spec.clone(), beam, surface, drive, m_minus_d, c_tip, s_geo, m_chol, initial_z, initial_zd, frozen: FrozenMemo::default() })
+        let prescribed = matches!(drive, Drive::Prescribed(_));
+        let frozen = match earlier {
+            Some(Shared { frozen: (params, was_prescribed, memo), .. }) if *params == beam.params && *was_prescribed == prescribed => memo.clone(),
+            _ => FrozenMemo::default(),
+        };
+        Ok(RotatingModel { spec: spec.clone(), beam, surface, drive, m_minus_d, c_tip, s_geo, m_chol, initial_z, initial_zd, frozen })
+    }
+
+    /// What a model built after this one can take over ([`Shared`]).
+    pub fn shared(&self) -> Shared {
+        Shared { integrals: self.beam.hat.clone(), frozen: (self.beam.params.clone(), self.prescribed().is_some(), self.frozen.clone()) }
     }
 
     pub fn n_modes(&self) -> usize {
