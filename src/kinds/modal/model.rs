@@ -33,6 +33,11 @@ pub struct SensorModel {
     pub moment: Option<DVector<f64>>,
 }
 
+/// Contact-phase decompositions a model hands the next one at most (the
+/// newest): a scene's own active sets, without piling up those of a
+/// sweep's earlier points (each a few `(2N)^2` matrices).
+const HANDED_SYSTEMS: usize = 16;
+
 /// What a model computed that holds for other scenes too, found by its
 /// content: handed from a component's model to the next one when its
 /// values change ([`crate::kind::Scene::shared`]).
@@ -49,7 +54,7 @@ impl Model {
             Structure::Beam(b) => Some(b.clone()),
             _ => None,
         };
-        Shared { phase_systems: self.phase_systems.clone(), beam }
+        Shared { phase_systems: self.phase_systems.newest(HANDED_SYSTEMS), beam }
     }
 }
 

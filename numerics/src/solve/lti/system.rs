@@ -257,6 +257,16 @@ impl SystemCache {
         Ok(system)
     }
 
+    /// A cache of its own holding the newest `keep` decompositions of this
+    /// one (shared, not copied): what a model hands the next one (a sweep's
+    /// next point), bounded so that points whose matrices all differ do not
+    /// pile up decompositions.
+    pub fn newest(&self, keep: usize) -> SystemCache {
+        let entries = self.entries();
+        let first = entries.len().saturating_sub(keep);
+        SystemCache(Arc::new(Mutex::new(entries[first..].to_vec())))
+    }
+
     /// The number of decompositions held.
     pub fn len(&self) -> usize {
         self.entries().len()
@@ -369,5 +379,16 @@ mod tests {
         let c = cache.get_or_build(k, d, w).unwrap();
         assert!(!Arc::ptr_eq(&a, &c), "the oldest entry was dropped and rebuilt");
         assert_eq!(a.eig, c.eig, "the same decomposition, rebuilt");
+        // The newest entries handed on: shared, and no others.
+        let handed = cache.newest(2);
+        assert_eq!(handed.len(), 2);
+        let (k, d, w) = system(4.0);
+        assert!(Arc::ptr_eq(&handed.get_or_build(k, d, w).unwrap(), &c), "the newest is shared");
+        // The third newest (the loop's last but one) stays behind.
+        let (k, d, w) = system(5.0 + (SystemCache::CAPACITY + 3) as f64);
+        let kept = cache.get_or_build(k.clone(), d.clone(), w.clone()).unwrap();
+        assert!(!Arc::ptr_eq(&handed.get_or_build(k, d, w).unwrap(), &kept), "an older one is not handed on");
+        assert_eq!(handed.len(), 3);
+        assert_eq!(cache.len(), SystemCache::CAPACITY, "the cache handed on from is not changed");
     }
 }
