@@ -56,6 +56,12 @@ pub trait ModalRhs: Rhs {
     fn modal_remainder(&mut self, _t: f64, _q: &[f64], _g: &mut [f64]) -> bool {
         false
     }
+
+    /// [`Self::modal_remainder`] at several points (a step's nodes), the
+    /// same bits point by point; `false`: not available.
+    fn modal_remainders(&mut self, ts: &[f64], qs: &[&[f64]], gs: &mut [&mut [f64]]) -> bool {
+        ts.iter().zip(qs).zip(gs.iter_mut()).all(|((&t, q), g)| self.modal_remainder(t, q, g))
+    }
 }
 
 impl<F: FnMut(f64, &[f64], &mut [f64])> ModalRhs for F {}
@@ -494,6 +500,23 @@ impl<R: ModalRhs> Exponential<R> {
         g[m..].copy_from_slice(&self.scratch_f[2 * m..]);
     }
 
+    /// [`Self::remainder`] at the nodes past a step's start, through the
+    /// inner right-hand side's batch where it has one.
+    fn node_remainders(&mut self, t0: f64, h: f64, states: &[Vec<f64>], values: &mut [Vec<f64>]) {
+        let c = &self.nodes.0.c;
+        let ts: [f64; NODES - 1] = std::array::from_fn(|j| t0 + c[j + 1] * h);
+        let qs: [&[f64]; NODES - 1] = std::array::from_fn(|j| &states[j][..]);
+        let mut gs = values.iter_mut();
+        let mut gs: [&mut [f64]; NODES - 1] = std::array::from_fn(|_| &mut gs.next().expect("a node's values")[..]);
+        if self.inner.modal_remainders(&ts, &qs, &mut gs) {
+            self.evaluations += NODES as u64 - 1;
+            return;
+        }
+        for ((&t, q), g) in ts.iter().zip(qs).zip(gs) {
+            self.remainder(t, q, g);
+        }
+    }
+
     pub fn t(&self) -> f64 {
         self.t
     }
@@ -642,9 +665,7 @@ impl<R: ModalRhs> Exponential<R> {
                 for j in 1..NODES - 1 {
                     Self::state_at(&modes, &q0, &poly, &responses[j], h, &mut states[j]);
                 }
-                for j in 1..NODES {
-                    self.remainder(t0 + nodes_c[j] * h, &states[j], &mut values[j]);
-                }
+                self.node_remainders(t0, h, &states[1..], &mut values[1..]);
             }
             // The error: what the top term adds at the end (a phase's
             // first step: also that term extrapolated from the two below,

@@ -37,7 +37,7 @@ unsafe fn mat_vec_avx(a: &[f64], x: &[f64], out: &mut [f64], start: f64) {
 /// Fewer rows than this run in the baseline build: AVX's four lanes
 /// leave more of a short column to the scalar remainder (7 rows: 9 % more
 /// instructions over the rotating beam's 6-mode run, 16 % fewer at 64).
-const WIDE_ROWS: usize = 16;
+pub const WIDE_ROWS: usize = 16;
 
 /// Below this many rows the sums stay in registers for the whole product
 /// (the rows a constant, unrolled: one pass over `a`, none over `out`).
@@ -100,6 +100,93 @@ fn mat_vec_body(a: &[f64], x: &[f64], out: &mut [f64], start: f64) {
     }
 }
 
+/// [`mat_vec`] of one matrix with several vectors: `outs[k] = start + a
+/// xs[k]`, each row summed in the order of `j` as [`mat_vec`] sums it (the
+/// same bits). From [`WIDE_ROWS`] rows up to [`BATCH`] vectors go through
+/// `a` together, eight rows at a time with every vector's sums in
+/// registers: `a` is read once per batch instead of once per vector, which
+/// bounds the single products at many rows (the rotating beam's `(N+1)^2`
+/// products at a step's nodes).
+pub fn mat_vecs(a: &[f64], xs: &[&[f64]], outs: &mut [&mut [f64]], start: f64) {
+    assert_eq!(xs.len(), outs.len(), "mat_vecs: {} vectors, {} outputs", xs.len(), outs.len());
+    let Some(rows) = outs.first().map(|o| o.len()) else { return };
+    if rows < WIDE_ROWS || xs.len() == 1 {
+        for (x, out) in xs.iter().zip(outs.iter_mut()) {
+            mat_vec(a, x, out, start);
+        }
+        return;
+    }
+    for (xs, outs) in xs.chunks(BATCH).zip(outs.chunks_mut(BATCH)) {
+        macro_rules! batch {
+            ($($k:literal)*) => {
+                match xs.len() {
+                    $($k => {
+                        let xs: &[&[f64]; $k] = xs.try_into().expect("a chunk of $k");
+                        let outs: &mut [&mut [f64]; $k] = outs.try_into().expect("a chunk of $k");
+                        #[cfg(target_arch = "x86_64")]
+                        if super::wide::avx() {
+                            // SAFETY: the processor has AVX (just checked).
+                            unsafe { mat_vecs_avx::<$k>(a, xs, outs, start) };
+                            continue;
+                        }
+                        mat_vecs_body::<$k>(a, xs, outs, start);
+                    })*
+                    _ => unreachable!("chunks of at most BATCH"),
+                }
+            };
+        }
+        const _: () = assert!(BATCH == 6, "one arm per batch size up to BATCH");
+        batch!(1 2 3 4 5 6);
+    }
+}
+
+/// Vectors per pass of [`mat_vecs`] (the exponential integrator's nodes
+/// past the step's start); with eight rows, twelve sums in registers.
+const BATCH: usize = 6;
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn mat_vecs_avx<const K: usize>(a: &[f64], xs: &[&[f64]; K], outs: &mut [&mut [f64]; K], start: f64) {
+    mat_vecs_body::<K>(a, xs, outs, start)
+}
+
+#[inline(always)]
+fn mat_vecs_body<const K: usize>(a: &[f64], xs: &[&[f64]; K], outs: &mut [&mut [f64]; K], start: f64) {
+    let rows = outs[0].len();
+    let cols = xs[0].len();
+    assert!(a.len() == rows * cols && xs.iter().all(|x| x.len() == cols) && outs.iter().all(|o| o.len() == rows), "mat_vecs: a is {} entries for {rows} x {cols}", a.len());
+    #[inline(always)]
+    fn block<const K: usize, const R: usize>(a: &[f64], xs: &[&[f64]; K], outs: &mut [&mut [f64]; K], start: f64, r0: usize) {
+        let rows = outs[0].len();
+        let mut sums = [[start; R]; K];
+        for (j, column) in a.chunks_exact(rows).enumerate() {
+            let column: &[f64; R] = column[r0..r0 + R].try_into().expect("R rows");
+            for (s, x) in sums.iter_mut().zip(xs) {
+                let xj = x[j];
+                for (si, aij) in s.iter_mut().zip(column) {
+                    *si += aij * xj;
+                }
+            }
+        }
+        for (out, s) in outs.iter_mut().zip(&sums) {
+            out[r0..r0 + R].copy_from_slice(s);
+        }
+    }
+    let mut r0 = 0;
+    while r0 + 8 <= rows {
+        block::<K, 8>(a, xs, outs, start, r0);
+        r0 += 8;
+    }
+    if r0 + 4 <= rows {
+        block::<K, 4>(a, xs, outs, start, r0);
+        r0 += 4;
+    }
+    while r0 < rows {
+        block::<K, 1>(a, xs, outs, start, r0);
+        r0 += 1;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -132,6 +219,37 @@ mod tests {
                     mat_vec(&a, &x, &mut out, start);
                     let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(&out), bits(&plain), "{rows} x {cols}");
+                }
+            }
+        }
+    }
+    /// [`mat_vecs`] gives each vector [`mat_vec`]'s bits, for every batch
+    /// size up to two batches and row counts below, at and past the wide
+    /// rows (every remainder of the eight-row blocks).
+    #[test]
+    fn batched_products_are_the_single_ones_bits() {
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for rows in [1, 7, 15, 16, 17, 19, 20, 23, 24, 33, 65] {
+            for cols in [1, 5, 16, 33, 65] {
+                let a: Vec<f64> = (0..rows * cols).map(|_| next() * 1e3f64.powf(next())).collect();
+                for k in 1..=2 * BATCH + 1 {
+                    let xs: Vec<Vec<f64>> = (0..k).map(|_| (0..cols).map(|_| next()).collect()).collect();
+                    let refs: Vec<&[f64]> = xs.iter().map(|x| &x[..]).collect();
+                    let mut outs = vec![vec![f64::NAN; rows]; k];
+                    let mut out_refs: Vec<&mut [f64]> = outs.iter_mut().map(|o| &mut o[..]).collect();
+                    mat_vecs(&a, &refs, &mut out_refs, -0.0);
+                    for (x, out) in xs.iter().zip(&outs) {
+                        let mut single = vec![f64::NAN; rows];
+                        mat_vec(&a, x, &mut single, -0.0);
+                        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(out), bits(&single), "{rows} x {cols}, {k} vectors");
+                    }
                 }
             }
         }

@@ -77,7 +77,7 @@ use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 use crate::solve::quadrature::for_each_node;
 
 mod modal;
-pub use modal::{FrozenPart, Hub, ModalEquations};
+pub use modal::{FrozenPart, Hub, ModalEquations, ModalPoint};
 use crate::structure::beam::{DimensionlessMode, Support};
 
 /// Which terms of the shortening `u` the model keeps.

@@ -20,9 +20,10 @@ use serde::{Deserialize, Serialize};
 use super::frozen::Frozen;
 use super::system::Phase;
 use crate::contact::Contact;
-use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations};
+use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations, ModalPoint};
 use crate::solve::dop853::{Dop853, Rhs};
 use crate::solve::exponential::{Exponential, ModalRhs};
+use crate::solve::matvec::WIDE_ROWS;
 use crate::solve::radau::{Radau, RadauOptions, Tol};
 
 /// Which integrator a rotating run uses (`solver.method`).
@@ -88,6 +89,18 @@ impl ModalRhs for PhaseRhs {
         }
         true
     }
+
+    /// Below [`WIDE_ROWS`] modal coordinates point by point: the batch's
+    /// products run as single ones there, and its set-up costs (2.5 % at 6
+    /// modes).
+    fn modal_remainders(&mut self, ts: &[f64], qs: &[&[f64]], gs: &mut [&mut [f64]]) -> bool {
+        let Some(modal) = self.modal.as_mut() else { return false };
+        if self.phase.extras() / 2 < WIDE_ROWS {
+            return ts.iter().zip(qs).zip(gs.iter_mut()).all(|((&t, q), g)| self.modal_remainder(t, q, g));
+        }
+        modal_rates_at(&self.phase, modal, ts, qs, gs);
+        true
+    }
 }
 
 /// The hub's motion in `phase` at `t`.
@@ -110,6 +123,34 @@ fn modal_rates(phase: &Phase, modal: &mut ModalEquations, t: f64, q: &[f64], g: 
     let terms = phase.with_pushing_law(|contact| modal.remainder(&phase.model.beam, &q[..m], &q[m..2 * m], hub, contact, &mut g[..m]))?;
     phase.totals_rates(&terms, &mut g[m..m + 3]);
     Ok(())
+}
+
+/// [`modal_rates`] at several points (a step's nodes; the products in one
+/// pass, [`ModalEquations::remainders`]); a point where `J(z)` lost
+/// definiteness gets non-finite values, which the step control sees.
+fn modal_rates_at(phase: &Phase, modal: &mut ModalEquations, ts: &[f64], qs: &[&[f64]], gs: &mut [&mut [f64]]) {
+    const POINTS: usize = 8;
+    let m = phase.extras() / 2;
+    for ((ts, qs), gs) in ts.chunks(POINTS).zip(qs.chunks(POINTS)).zip(gs.chunks_mut(POINTS)) {
+        let count = ts.len();
+        let points: [ModalPoint<'_>; POINTS] = std::array::from_fn(|i| match (ts.get(i), qs.get(i)) {
+            (Some(&t), Some(q)) => ModalPoint { p: &q[..m], pd: &q[m..2 * m], hub: hub_at(phase, t) },
+            _ => ModalPoint { p: &[], pd: &[], hub: Hub::Torque(0.0) },
+        });
+        let mut terms = [None; POINTS];
+        {
+            let mut rows = gs.iter_mut();
+            let mut modes: [&mut [f64]; POINTS] = std::array::from_fn(|_| rows.next().map_or(Default::default(), |g| &mut g[..m]));
+            phase.with_pushing_law(|contact| modal.remainders(&phase.model.beam, &points[..count], contact, &mut modes[..count], &mut terms[..count]));
+        }
+        for (g, terms) in gs.iter_mut().zip(&terms) {
+            match terms {
+                Some(terms) => phase.totals_rates(terms, &mut g[m..m + 3]),
+                // J(z) lost definiteness: the step control sees a non-finite value.
+                None => g.fill(f64::NAN),
+            }
+        }
+    }
 }
 
 impl Rhs for PhaseRhs {

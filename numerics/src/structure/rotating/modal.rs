@@ -50,6 +50,7 @@
 use nalgebra::DMatrix;
 
 use super::{mat_vec, ContactTerms, Plane, RotatingBeam, TipFrame};
+use crate::solve::matvec::mat_vecs;
 
 /// How the hub moves: a torque drives it (its angle among the modal
 /// coordinates), or its angle, rate and acceleration are given.
@@ -82,6 +83,13 @@ pub struct FrozenPart<'a> {
 /// torque-driven hub, `N` for a prescribed one).
 #[derive(Clone, Debug)]
 pub struct ModalEquations {
+    products: FrozenProducts,
+    scratch: [Vec<f64>; 5],
+}
+
+/// What [`ModalEquations`] holds beside its working arrays.
+#[derive(Clone, Debug)]
+struct FrozenProducts {
     m: usize,
     prescribed: bool,
     /// `Phi_0` (the hub angle's row; empty when prescribed), `Phi_B^T w`, `Phi_B^T sigma`.
@@ -116,7 +124,6 @@ pub struct ModalEquations {
     tip_w: Vec<f64>,
     /// `J_h + J_b - Gamma . M^-1 Gamma`: the hub's Schur complement at `B = 0`.
     schur_0: f64,
-    scratch: [Vec<f64>; 5],
 }
 
 impl RotatingBeam {
@@ -166,7 +173,7 @@ impl RotatingBeam {
         let slow_rows = (0..m).rev().find(|&i| matters(i)).map_or(0, |i| i + 1);
         let left_slow = left.rows(0, slow_rows).into_owned();
         let left_diagonal: Vec<f64> = (0..m).map(|k| left[(k, k)]).collect();
-        ModalEquations {
+        let products = FrozenProducts {
             m,
             prescribed,
             phi_hub: if prescribed { Vec::new() } else { phi.row(0).iter().copied().collect() },
@@ -191,8 +198,8 @@ impl RotatingBeam {
             tip: quad(&self.c_tip),
             tip_w: (&w * &self.w).as_slice().to_vec(),
             schur_0,
-            scratch: Default::default(),
-        }
+        };
+        ModalEquations { products, scratch: Default::default() }
     }
 }
 
@@ -216,6 +223,7 @@ struct Sums {
 impl Sums {
     /// Seven running sums in one pass, each in the order of `k` (the
     /// bits of seven calls of [`dot`]; the independent sums overlap).
+    #[inline(always)]
     fn of(phi_hub: Option<&[f64]>, a_md: &[f64], a_k: &[f64], kappa: &[f64], p: &[f64], pd: &[f64], gp: &[f64]) -> Self {
         let mut s = Sums { hub: 0.0, hub_rate: 0.0, a_md: 0.0, a_k: 0.0, kappa: 0.0, p_gp: 0.0, pd_gp: 0.0 };
         for k in 0..p.len() {
@@ -242,6 +250,11 @@ impl ModalEquations {
     /// `Phi_B^T C_L Phi_B p`.
     fn tip_frame((tip, phi_w): (&DMatrix<f64>, &[f64]), beam: &RotatingBeam, p: &[f64], pd: &[f64], sn: f64, cs: f64, lp: &mut [f64]) -> TipFrame {
         mat_vec(tip.as_slice(), p, lp);
+        Self::tip_frame_of((lp, phi_w), beam, p, pd, sn, cs)
+    }
+
+    /// The tip in the hub's frame from `lp = Phi_B^T C_L Phi_B p`.
+    fn tip_frame_of((lp, phi_w): (&[f64], &[f64]), beam: &RotatingBeam, p: &[f64], pd: &[f64], sn: f64, cs: f64) -> TipFrame {
         TipFrame {
             x: beam.params.hub_radius + beam.params.length - 0.5 * dot(p, lp),
             y: dot(phi_w, p),
@@ -258,12 +271,12 @@ impl ModalEquations {
     /// (one product instead of three); `lp` is room for `m` values.
     pub fn penetration(&self, beam: &RotatingBeam, p: &[f64], pd: &[f64], hub: Hub, plane: &Plane, lp: &mut Vec<f64>) -> (f64, f64) {
         let (theta, thd) = match hub {
-            Hub::Torque(_) => (dot(&self.phi_hub, p), dot(&self.phi_hub, pd)),
+            Hub::Torque(_) => (dot(&self.products.phi_hub, p), dot(&self.products.phi_hub, pd)),
             Hub::Prescribed { theta, theta_dot, .. } => (theta, theta_dot),
         };
         let (sn, cs) = theta.sin_cos();
-        lp.resize(self.m, 0.0);
-        Self::tip_frame((&self.tip, &self.phi_w), beam, p, pd, sn, cs, lp).penetration(thd, plane)
+        lp.resize(self.products.m, 0.0);
+        Self::tip_frame((&self.products.tip, &self.products.phi_w), beam, p, pd, sn, cs, lp).penetration(thd, plane)
     }
 
     /// `g = Psi z'' + Omega^2 p + c p'` at `(p, p')` for the hub's
@@ -281,14 +294,121 @@ impl ModalEquations {
         contact: Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>,
         g: &mut [f64],
     ) -> Result<ContactTerms, String> {
-        let m = self.m;
+        let m = self.products.m;
         assert!(p.len() == m && pd.len() == m && g.len() == m, "modal remainder: {m} coordinates");
-        for v in self.scratch.iter_mut() {
+        let ModalEquations { products: this, scratch } = self;
+        for v in scratch.iter_mut() {
             v.resize(m, 0.0);
         }
-        let [gp, hp, lp, sp, tmp] = &mut self.scratch;
+        let [gp, hp, lp, sp, tmp] = scratch;
+        mat_vec(this.g_md.as_slice(), p, gp);
+        let slow = this.left_slow.nrows();
+        mat_vec(this.left_slow.as_slice(), p, &mut g[..slow]);
+        if let Some((s_geo, _)) = &this.gravity {
+            mat_vec(s_geo.as_slice(), p, sp);
+        }
+        if contact.is_some() {
+            mat_vec(this.tip.as_slice(), p, lp);
+        }
+        if let Some(e_c) = &this.e_c {
+            mat_vec(e_c.as_slice(), pd, tmp);
+        }
+        let products = PointProducts { gp, lp, sp, tmp };
+        this.finish(beam, &ModalPoint { p, pd, hub }, products, hp, contact, g).ok_or_else(not_positive_definite)
+    }
+
+    /// [`Self::remainder`] at several points (a step's nodes), the same
+    /// bits point by point: the products with the `m x m` matrices go
+    /// through each matrix once for all points
+    /// ([`crate::solve::matvec::mat_vecs`]). `terms[i]`: point `i`'s
+    /// contact terms, `None` where `J` is not positive definite (its `g`
+    /// then unset).
+    pub fn remainders(
+        &mut self,
+        beam: &RotatingBeam,
+        points: &[ModalPoint<'_>],
+        mut contact: Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>,
+        gs: &mut [&mut [f64]],
+        terms: &mut [Option<ContactTerms>],
+    ) {
+        let (m, count) = (self.products.m, points.len());
+        assert!(
+            gs.len() == count && terms.len() == count && points.iter().zip(gs.iter()).all(|(x, g)| x.p.len() == m && x.pd.len() == m && g.len() == m),
+            "modal remainder: {m} coordinates at each point"
+        );
+        for ((points, gs), terms) in points.chunks(POINTS).zip(gs.chunks_mut(POINTS)).zip(terms.chunks_mut(POINTS)) {
+            let contact = contact.as_mut().map(|(plane, force)| (*plane, &mut **force as &mut dyn FnMut(f64, f64) -> f64));
+            self.remainders_of_chunk(beam, points, contact, gs, terms);
+        }
+    }
+
+    /// [`Self::remainders`] at up to [`POINTS`] points (no allocation).
+    fn remainders_of_chunk(
+        &mut self,
+        beam: &RotatingBeam,
+        points: &[ModalPoint<'_>],
+        mut contact: Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>,
+        gs: &mut [&mut [f64]],
+        terms: &mut [Option<ContactTerms>],
+    ) {
+        let (m, count) = (self.products.m, points.len());
+        let ModalEquations { products: this, scratch } = self;
+        for v in scratch.iter_mut() {
+            v.resize(m * POINTS, 0.0);
+        }
+        let [gp, hp, lp, sp, tmp] = scratch;
+        let ps: [&[f64]; POINTS] = std::array::from_fn(|i| points.get(i).map_or(&[][..], |x| x.p));
+        let pds: [&[f64]; POINTS] = std::array::from_fn(|i| points.get(i).map_or(&[][..], |x| x.pd));
+        let (ps, pds) = (&ps[..count], &pds[..count]);
+        // Room for each point's product, in `v`.
+        fn rows_of(v: &mut [f64], m: usize) -> [&mut [f64]; POINTS] {
+            let mut rows = v.chunks_exact_mut(m);
+            std::array::from_fn(|_| rows.next().unwrap_or_default())
+        }
+        // The products first, every point's at once.
+        mat_vecs(this.g_md.as_slice(), ps, &mut rows_of(gp, m)[..count], -0.0);
+        let slow = this.left_slow.nrows();
+        {
+            let mut g_rows = gs.iter_mut();
+            let mut outs: [&mut [f64]; POINTS] = std::array::from_fn(|_| g_rows.next().map_or(Default::default(), |g| &mut g[..slow]));
+            mat_vecs(this.left_slow.as_slice(), ps, &mut outs[..count], -0.0);
+        }
+        if let Some((s_geo, _)) = &this.gravity {
+            mat_vecs(s_geo.as_slice(), ps, &mut rows_of(sp, m)[..count], -0.0);
+        }
+        if contact.is_some() {
+            mat_vecs(this.tip.as_slice(), ps, &mut rows_of(lp, m)[..count], -0.0);
+        }
+        if let Some(e_c) = &this.e_c {
+            mat_vecs(e_c.as_slice(), pds, &mut rows_of(tmp, m)[..count], -0.0);
+        }
+        for (i, ((point, g), terms_i)) in points.iter().zip(gs.iter_mut()).zip(terms.iter_mut()).enumerate() {
+            let at = i * m..(i + 1) * m;
+            let products = PointProducts { gp: &gp[at.clone()], lp: &lp[at.clone()], sp: &sp[at.clone()], tmp: &tmp[at.clone()] };
+            let contact = contact.as_mut().map(|(plane, force)| (*plane, &mut **force as &mut dyn FnMut(f64, f64) -> f64));
+            *terms_i = this.finish(beam, point, products, &mut hp[at], contact, g);
+        }
+    }
+
+}
+
+impl FrozenProducts {
+    /// One point's remainder from its products (`g[..slow]` holding `L`'s
+    /// slow rows times `p`).
+    #[inline(always)]
+    fn finish(
+        &self,
+        beam: &RotatingBeam,
+        point: &ModalPoint<'_>,
+        products: PointProducts<'_>,
+        hp: &mut [f64],
+        contact: Option<(&Plane, &mut dyn FnMut(f64, f64) -> f64)>,
+        g: &mut [f64],
+    ) -> Option<ContactTerms> {
+        let m = self.m;
+        let ModalPoint { p, pd, hub } = *point;
+        let PointProducts { gp, lp, sp, tmp } = products;
         let free_hub = !self.prescribed;
-        mat_vec(self.g_md.as_slice(), p, gp);
         // The dot products of `p`, `p'` and `G p`, in one pass (each summed
         // in order, as `dot` sums).
         let sums = Sums::of(free_hub.then_some(&self.phi_hub[..]), &self.a_md, &self.a_k, &self.kappa, p, pd, gp);
@@ -307,8 +427,7 @@ impl ModalEquations {
             a_qb -= dot(&self.a_c, pd);
         }
         let mut a_s_p = 0.0;
-        if let Some((gs, _)) = &self.gravity {
-            mat_vec(gs.as_slice(), p, sp);
+        if self.gravity.is_some() {
             a_s_p = dot(&self.a_s, p);
             q0 -= grav * (beam.s_1 * cs - sn * dot(&self.phi_sigma, p) - 0.5 * cs * dot(p, sp));
             a_qb += grav * sn * a_s_p - grav * cs * self.a_sigma;
@@ -316,7 +435,7 @@ impl ModalEquations {
         let mut terms = ContactTerms::default();
         let mut pushing = None;
         if let Some((plane, force)) = contact {
-            let tip = Self::tip_frame((&self.tip, &self.phi_w), beam, p, pd, sn, cs, lp);
+            let tip = ModalEquations::tip_frame_of((lp, &self.phi_w), beam, p, pd, sn, cs);
             (terms.penetration, terms.rate) = tip.penetration(thd, plane);
             terms.force = force(terms.penetration, terms.rate);
             if terms.force != 0.0 {
@@ -335,7 +454,7 @@ impl ModalEquations {
             Hub::Torque(_) => {
                 let schur = self.schur_0 + sums.p_gp;
                 if !(schur > 0.0) {
-                    return Err("rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string());
+                    return None;
                 }
                 (q0 - a_qb) / schur
             }
@@ -350,15 +469,13 @@ impl ModalEquations {
         let hub = thdd - sums.kappa;
         let dw2 = thd * thd - self.frozen_w2;
         let slow = self.left_slow.nrows();
-        mat_vec(self.left_slow.as_slice(), p, &mut g[..slow]);
         for k in slow..m {
             g[k] = self.left_diagonal[k] * p[k];
         }
         for k in 0..m {
             g[k] += self.u[k] * hub + dw2 * hp[k];
         }
-        if let Some(e_c) = &self.e_c {
-            mat_vec(e_c.as_slice(), pd, tmp);
+        if self.e_c.is_some() {
             for k in 0..m {
                 g[k] += tmp[k];
             }
@@ -375,8 +492,34 @@ impl ModalEquations {
                 g[k] += f * (-lx * wl_b + ly * self.tip_w[k]);
             }
         }
-        Ok(terms)
+        Some(terms)
     }
+}
+
+/// One point where [`ModalEquations::remainders`] evaluates: the modal
+/// coordinates, their rates and the hub's motion.
+#[derive(Clone, Copy, Debug)]
+pub struct ModalPoint<'a> {
+    pub p: &'a [f64],
+    pub pd: &'a [f64],
+    pub hub: Hub,
+}
+
+/// One point's products with the `m x m` matrices: `G p`, `Phi_B^T C_L
+/// Phi_B p` (pressed), `Phi_B^T S Phi_B p` (gravity), `E_c p'` (damping).
+struct PointProducts<'a> {
+    gp: &'a [f64],
+    lp: &'a [f64],
+    sp: &'a [f64],
+    tmp: &'a [f64],
+}
+
+/// Points per pass of [`ModalEquations::remainders`] (the exponential
+/// integrator's nodes past a step's start, at most).
+const POINTS: usize = 8;
+
+fn not_positive_definite() -> String {
+    "rotating beam: J(z) is not positive definite (hub inertia too small for this deflection?)".to_string()
 }
 
 #[cfg(test)]
@@ -399,8 +542,8 @@ mod tests {
         }
     }
 
-    fn check(prescribed: bool, gravity: f64, zeta: f64, pressed: bool) {
-        let n = 7;
+    /// The DWZ beam at `n` modes (a hub radius, damping `zeta`, gravity).
+    fn dwz_beam(n: usize, gravity: f64, zeta: f64) -> RotatingBeam {
         let params = RotatingBeamParams {
             length: 1.0,
             mass_per_length: 0.86884,
@@ -412,11 +555,17 @@ mod tests {
             order: Order::First,
             modal_damping: vec![zeta],
         };
-        let beam = RotatingBeam::new(params).unwrap();
+        RotatingBeam::new(params).unwrap()
+    }
+
+    /// A frozen part as the stepper makes it: K - theta0'^2 (M - D) - g
+    /// sin(theta0) S, with J(0) and bordered for a torque-driven hub
+    /// (frozen at another hub speed and angle than the states'): its
+    /// equations, `Phi`, `Psi`, `omega^2` and damping.
+    fn frozen_equations(beam: &RotatingBeam, prescribed: bool) -> (ModalEquations, DMatrix<f64>, DMatrix<f64>, Vec<f64>, Vec<f64>) {
+        let n = beam.n_modes();
         let m = if prescribed { n } else { n + 1 };
-        // A frozen part as the stepper makes it: K - theta0'^2 (M - D) - g
-        // sin(theta0) S, with J(0) and bordered for a torque-driven hub
-        // (frozen at another hub speed and angle than the state's).
+        let gravity = beam.params.gravity;
         let (frozen_theta, frozen_theta_dot) = (0.4, 1.5);
         let stiff = &beam.k - &beam.m_minus_d * (frozen_theta_dot * frozen_theta_dot) - &beam.s_geo * (gravity * f64::sin(frozen_theta));
         let border = |b: &DMatrix<f64>| DMatrix::from_fn(n + 1, n + 1, |i, j| if i == 0 || j == 0 { 0.0 } else { b[(i - 1, j - 1)] });
@@ -430,7 +579,68 @@ mod tests {
         let cq = phi.transpose() * &cb * &phi;
         let c: Vec<f64> = (0..m).map(|k| if omega2[k] > 0.0 { cq[(k, k)].max(0.0) } else { 0.0 }).collect();
         let frozen = FrozenPart { phi: &phi, psi: &psi, omega2: &omega2, damping: &c, theta_dot_sq: frozen_theta_dot * frozen_theta_dot, sin_theta: f64::sin(frozen_theta), prescribed };
-        let mut eq = beam.modal_equations(frozen);
+        (beam.modal_equations(frozen), phi, psi, omega2, c)
+    }
+
+    /// The remainder at a step's nodes in one call (the products through
+    /// each matrix once) gives each node [`ModalEquations::remainder`]'s
+    /// bits and contact terms, at 20 modes (the products' wide path), for
+    /// both hubs, with and without gravity, damping and a pressed contact.
+    #[test]
+    fn remainders_at_several_points_are_the_single_ones_bits() {
+        let n = 20;
+        for prescribed in [false, true] {
+            for (gravity, zeta, pressed) in [(0.0, 0.0, false), (9.81, 0.02, true), (0.0, 0.01, true)] {
+                let beam = dwz_beam(n, gravity, zeta);
+                let (mut eq, ..) = frozen_equations(&beam, prescribed);
+                let m = if prescribed { n } else { n + 1 };
+                let plane = Plane::new([0.3, -1.0], [1.1, 0.0]).unwrap();
+                let law = |pen: f64, rate: f64| if pen > -1.0 { 1e5 * (pen + 1.0) + 30.0 * rate } else { 0.0 };
+                let mut seed = 777u64;
+                let mut next = move || {
+                    seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+                };
+                // Nine points: a batch of eight and one more.
+                let states: Vec<(Vec<f64>, Vec<f64>, Hub)> = (0..9)
+                    .map(|i| {
+                        let scale = 1e-3 * (1.0 + i as f64);
+                        let p: Vec<f64> = (0..m).map(|k| scale * next() / (1 + k) as f64).collect();
+                        let pd: Vec<f64> = (0..m).map(|k| 100.0 * scale * next() / (1 + k) as f64).collect();
+                        let hub = if prescribed { Hub::Prescribed { theta: 0.7 + 0.1 * i as f64, theta_dot: 2.0, theta_ddot: -3.0 } } else { Hub::Torque(0.3 * i as f64) };
+                        (p, pd, hub)
+                    })
+                    .collect();
+                let points: Vec<ModalPoint<'_>> = states.iter().map(|(p, pd, hub)| ModalPoint { p, pd, hub: *hub }).collect();
+                let mut batch = vec![vec![f64::NAN; m]; points.len()];
+                let mut terms = vec![None; points.len()];
+                {
+                    let mut f = law;
+                    let contact = pressed.then(|| (&plane, &mut f as &mut dyn FnMut(f64, f64) -> f64));
+                    let mut outs: Vec<&mut [f64]> = batch.iter_mut().map(|g| &mut g[..]).collect();
+                    eq.remainders(&beam, &points, contact, &mut outs, &mut terms);
+                }
+                for (i, point) in points.iter().enumerate() {
+                    let mut f = law;
+                    let contact = pressed.then(|| (&plane, &mut f as &mut dyn FnMut(f64, f64) -> f64));
+                    let mut single = vec![f64::NAN; m];
+                    let t = eq.remainder(&beam, point.p, point.pd, point.hub, contact, &mut single).unwrap();
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    let case = format!("prescribed={prescribed} g={gravity} zeta={zeta} pressed={pressed} point {i}");
+                    assert_eq!(bits(&batch[i]), bits(&single), "{case}");
+                    let batch_terms = terms[i].expect("J positive definite");
+                    let terms_bits = |t: ContactTerms| [t.penetration, t.rate, t.force, t.hub_force].map(f64::to_bits);
+                    assert_eq!(terms_bits(batch_terms), terms_bits(t), "{case}");
+                }
+            }
+        }
+    }
+
+    fn check(prescribed: bool, gravity: f64, zeta: f64, pressed: bool) {
+        let n = 7;
+        let beam = dwz_beam(n, gravity, zeta);
+        let m = if prescribed { n } else { n + 1 };
+        let (mut eq, phi, psi, omega2, c) = frozen_equations(&beam, prescribed);
         let plane = Plane::new([0.3, -1.0], [1.1, 0.0]).unwrap();
         let mut seed = 12345u64;
         let mut next = move || {
