@@ -161,6 +161,12 @@ pub enum Reached {
 /// One simulation run.
 pub trait Run: Send + fmt::Debug + AnyRun {
     fn time(&self) -> f64;
+    /// The earliest time the state refers to: the anchor its motion is
+    /// propagated from, the start of a contact it reports. Never before
+    /// its run's start: a decoded state is checked against that.
+    fn earliest_time(&self) -> f64 {
+        self.time()
+    }
     /// The shortest period the run must resolve (the time's resolution
     /// must stay well below it).
     fn shortest_period(&self) -> f64;

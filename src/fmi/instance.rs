@@ -21,6 +21,8 @@ use super::variables::{Binding, VarType, Variable, VariableTable};
 /// Everything an FMU state snapshot holds (GetFMUstate): a deep copy.
 #[derive(Clone, Debug)]
 pub struct Snapshot {
+    /// The GUID of the FMU whose instance saved it.
+    pub guid: String,
     pub machine: ModelState,
     /// Current values of every parameter, in table order.
     pub parameters: Vec<f64>,
@@ -582,6 +584,7 @@ impl Instance {
 
     pub fn snapshot(&self) -> Snapshot {
         Snapshot {
+            guid: self.guid.clone(),
             machine: self.machine,
             parameters: (0..self.table.interface.parameters.len()).map(|i| self.scene.get(i)).collect(),
             inputs: self.inputs.clone(),
@@ -611,6 +614,9 @@ impl Instance {
 
     /// SetFMUState: refused (the instance unchanged) unless [`Self::admits`].
     pub fn restore<F: Call>(&mut self, f: F, s: &Snapshot) -> CallResult {
+        if s.guid != self.guid {
+            return Err(self.fail(&format!("{}: the state belongs to FMU {}, not to this one ({})", f.name(), s.guid, self.guid)));
+        }
         if let Err(m) = self.admits(s) {
             return Err(self.fail(&format!("{}: {m}", f.name())));
         }

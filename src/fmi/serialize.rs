@@ -22,11 +22,12 @@ const MAGIC: &[u8; 8] = b"BEAMSTOP";
 /// it (event mode, early return).
 pub const FORMAT_VERSION: u32 = 4;
 
-pub fn serialize(guid: &str, s: &Snapshot) -> Vec<u8> {
+/// The bytes of a state, under the GUID of the FMU that saved it.
+pub fn serialize(s: &Snapshot) -> Vec<u8> {
     let mut w = Writer(Vec::new());
     w.0.extend_from_slice(MAGIC);
     w.u32(FORMAT_VERSION);
-    w.str(guid);
+    w.str(&s.guid);
     w.u32(s.machine.code() as u32);
     w.f64(s.start_time);
     w.opt_f64(s.stop_time);
@@ -133,6 +134,26 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
         if sim.time() < start_time {
             return Err(format!("serialized state: simulation time {} before the start time {start_time}", sim.time()));
         }
+        // What a run of the instance keeps: its last successful step ends
+        // at the simulation's time or before, and no step goes past the
+        // stop time (within [`Instance::check_step`]'s rounding).
+        if last_successful_time > sim.time() {
+            return Err(format!(
+                "serialized state: last successful time = {last_successful_time}: must be <= the simulation time {}",
+                sim.time()
+            ));
+        }
+        if let Some(stop) = stop_time {
+            if sim.time() > stop + 1e-9 * stop.abs().max(1.0) {
+                return Err(format!("serialized state: simulation time {} past the stop time {stop}", sim.time()));
+            }
+        }
+        if sim.earliest_time() < start_time {
+            return Err(format!(
+                "serialized state: the simulation refers to time {} (its anchor), before the start time {start_time}",
+                sim.earliest_time()
+            ));
+        }
         Some(sim)
     } else {
         None
@@ -140,7 +161,7 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     if r.remaining() != 0 {
         return Err(format!("serialized state has {} trailing bytes", r.remaining()));
     }
-    let snapshot = Snapshot { machine, parameters, inputs, start_time, stop_time, sim, last_successful_time, terminated, pending, made_with };
+    let snapshot = Snapshot { guid: guid.to_string(), machine, parameters, inputs, start_time, stop_time, sim, last_successful_time, terminated, pending, made_with };
     instance.admits(&snapshot).map_err(|m| format!("serialized state: {m}"))?;
     Ok(snapshot)
 }

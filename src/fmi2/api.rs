@@ -299,8 +299,7 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FM
             return Err(null_argument(i, f, "FMUstate"));
         }
         let snapshot = i.snapshot();
-        i.states.hand_out(FMUstate, snapshot);
-        Ok(())
+        i.states.hand_out(FMUstate, snapshot).map_err(|m| i.fail(&format!("{}: {m}", f.name())))
     })
 }
 
@@ -311,15 +310,17 @@ pub unsafe extern "C" fn fmi2SetFMUstate(c: fmi2Component, FMUstate: fmi2FMUstat
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
-        i.restore(f, states::snapshot(FMUstate))
+        let snapshot = states::snapshot(FMUstate).map_err(|m| i.fail(&format!("{}: {m}", f.name())))?;
+        i.restore(f, snapshot)
     })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
-    call(c, Function::FreeFMUstate, |_| {
+    let f = Function::FreeFMUstate;
+    call(c, f, |i| {
         if !FMUstate.is_null() {
-            states::free(FMUstate);
+            states::free(FMUstate).map_err(|m| i.fail(&format!("{}: {m}", f.name())))?;
         }
         Ok(())
     })
@@ -332,7 +333,8 @@ pub unsafe extern "C" fn fmi2SerializedFMUstateSize(c: fmi2Component, FMUstate: 
         if FMUstate.is_null() || size.is_null() {
             return Err(null_argument(i, f, "FMUstate or size"));
         }
-        *size = serialize(i.guid(), states::snapshot(FMUstate)).len();
+        let snapshot = states::snapshot(FMUstate).map_err(|m| i.fail(&format!("{}: {m}", f.name())))?;
+        *size = serialize(snapshot).len();
         Ok(())
     })
 }
@@ -349,7 +351,8 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
         if FMUstate.is_null() {
             return Err(null_argument(i, f, "FMUstate"));
         }
-        let bytes = serialize(i.guid(), states::snapshot(FMUstate));
+        let snapshot = states::snapshot(FMUstate).map_err(|m| i.fail(&format!("{}: {m}", f.name())))?;
+        let bytes = serialize(snapshot);
         if size < bytes.len() {
             return Err(i.fail(&format!("fmi2SerializeFMUstate: size = {size}: the state needs {} bytes (fmi2SerializedFMUstateSize)", bytes.len())));
         }
@@ -377,8 +380,7 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
             return Err(null_argument(i, f, "FMUstate"));
         }
         let snapshot = deserialize(i, bytes).map_err(|m| i.fail(&format!("fmi2DeSerializeFMUstate: {m}")))?;
-        i.states.hand_out(FMUstate, snapshot);
-        Ok(())
+        i.states.hand_out(FMUstate, snapshot).map_err(|m| i.fail(&format!("{}: {m}", f.name())))
     })
 }
 

@@ -81,8 +81,9 @@ unsafe impl Send for Fmi2Sink {}
 impl crate::fmi::logging::Sink for Fmi2Sink {
     fn emit(&self, status: Status, category: &str, message: &str) {
         let Some(callback) = self.callback else { return };
-        // The logger takes a printf format: escape '%'.
-        let text = std::ffi::CString::new(message.replace('%', "%%").replace('\0', "")).unwrap_or_default();
+        // The logger takes a printf format in which `#<type><vr>#` names
+        // a variable (FMI 2.0.4 section 2.1.5): escape '%' and '#'.
+        let text = std::ffi::CString::new(message.replace('%', "%%").replace('#', "##").replace('\0', "")).unwrap_or_default();
         let cat = std::ffi::CString::new(category).unwrap_or_default();
         // SAFETY: the importer promised a valid logger for the instance's
         // lifetime; every pointer passed is a valid NUL-terminated string.

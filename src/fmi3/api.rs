@@ -15,7 +15,7 @@ use libc::{c_char, size_t};
 use beamstop::fmi::boundary::{guarded, null_argument, run, slice, slice_mut, string};
 use beamstop::fmi::instance::{CallResult, Instance, Modes};
 use beamstop::fmi::states;
-use beamstop::fmi::logging::Logger;
+use beamstop::fmi::logging::{Logger, Sink};
 use beamstop::fmi::resource::resource_dir;
 use beamstop::fmi::serialize::{deserialize, serialize};
 
@@ -29,6 +29,20 @@ use beamstop::fmi3::types::*;
 struct Slot {
     busy: Cell<bool>,
     instance: UnsafeCell<Instance3>,
+    /// The importer's logger, for the calls refused while one runs (the
+    /// instance's own logger is the running call's then).
+    refusals: Fmi3Sink,
+}
+
+impl Slot {
+    /// Logs why a call made while another runs on the instance is refused.
+    fn refuse(&self, name: &str) {
+        self.refusals.emit(
+            Status::Error,
+            "logStatusError",
+            &format!("{name}: called while another call runs on this instance (from its intermediate-update callback), refused; make it after that call returns"),
+        );
+    }
 }
 
 /// Runs `body` on the instance behind `c` inside the panic boundary.
@@ -42,6 +56,7 @@ pub(super) fn call(c: fmi3Instance, f: Function, body: impl FnOnce(&mut Instance
     // inside is borrowed mutably by one call at a time (the busy flag).
     let slot = unsafe { &*(c as *const Slot) };
     if slot.busy.replace(true) {
+        slot.refuse(f.name());
         return Status::Error.raw();
     }
     let instance = unsafe { &mut *slot.instance.get() };
@@ -144,7 +159,8 @@ pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
         Ok(Ok(mut core)) => {
             core.modes = Modes { event_mode_used: eventModeUsed != FMI3_FALSE, early_return_allowed: earlyReturnAllowed != FMI3_FALSE };
             let options = Options { intermediate_update: intermediateUpdate, environment: instanceEnvironment };
-            let slot = Slot { busy: Cell::new(false), instance: UnsafeCell::new(Instance3 { core, options }) };
+            let refusals = Fmi3Sink { callback: logMessage, environment: instanceEnvironment };
+            let slot = Slot { busy: Cell::new(false), instance: UnsafeCell::new(Instance3 { core, options }), refusals };
             Box::into_raw(Box::new(slot)) as fmi3Instance
         }
         Ok(Err((logger, message))) => {
@@ -162,6 +178,7 @@ pub unsafe extern "C" fn fmi3FreeInstance(instance: fmi3Instance) {
     }
     let slot = &*(instance as *const Slot);
     if slot.busy.get() {
+        slot.refuse("fmi3FreeInstance");
         return;
     }
     let _ = guarded(|| drop(Box::from_raw(instance as *mut Slot)));
@@ -302,8 +319,7 @@ pub unsafe extern "C" fn fmi3GetFMUState(instance: fmi3Instance, FMUState: *mut 
             return Err(null_argument(&i.core, f, "FMUState"));
         }
         let snapshot = i.core.snapshot();
-        i.core.states.hand_out(FMUState, snapshot);
-        Ok(())
+        i.core.states.hand_out(FMUState, snapshot).map_err(|m| fail(i, format!("{}: {m}", f.name())))
     })
 }
 
@@ -314,15 +330,17 @@ pub unsafe extern "C" fn fmi3SetFMUState(instance: fmi3Instance, FMUState: fmi3F
         if FMUState.is_null() {
             return Err(null_argument(&i.core, f, "FMUState"));
         }
-        i.core.restore(f, states::snapshot(FMUState))
+        let snapshot = states::snapshot(FMUState).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
+        i.core.restore(f, snapshot)
     })
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn fmi3FreeFMUState(instance: fmi3Instance, FMUState: *mut fmi3FMUState) -> fmi3Status {
-    call(instance, Function::FreeFMUState, |_| {
+    let f = Function::FreeFMUState;
+    call(instance, f, |i| {
         if !FMUState.is_null() {
-            states::free(FMUState);
+            states::free(FMUState).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
         }
         Ok(())
     })
@@ -335,7 +353,8 @@ pub unsafe extern "C" fn fmi3SerializedFMUStateSize(instance: fmi3Instance, FMUS
         if FMUState.is_null() || size.is_null() {
             return Err(null_argument(&i.core, f, "FMUState or size"));
         }
-        *size = serialize(i.core.guid(), states::snapshot(FMUState)).len();
+        let snapshot = states::snapshot(FMUState).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
+        *size = serialize(snapshot).len();
         Ok(())
     })
 }
@@ -347,7 +366,8 @@ pub unsafe extern "C" fn fmi3SerializeFMUState(instance: fmi3Instance, FMUState:
         if FMUState.is_null() {
             return Err(null_argument(&i.core, f, "FMUState"));
         }
-        let bytes = serialize(i.core.guid(), states::snapshot(FMUState));
+        let snapshot = states::snapshot(FMUState).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
+        let bytes = serialize(snapshot);
         if size < bytes.len() {
             return Err(fail(i, format!("{}: size = {size}: the state needs {} bytes (fmi3SerializedFMUStateSize)", f.name(), bytes.len())));
         }
@@ -370,8 +390,7 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(instance: fmi3Instance, seriali
             return Err(null_argument(&i.core, f, "FMUState"));
         }
         let snapshot = deserialize(&i.core, bytes).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
-        i.core.states.hand_out(FMUState, snapshot);
-        Ok(())
+        i.core.states.hand_out(FMUState, snapshot).map_err(|m| fail(i, format!("{}: {m}", f.name())))
     })
 }
 

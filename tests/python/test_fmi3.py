@@ -165,13 +165,13 @@ def test_early_return_and_event_mode_sample_every_event_before_and_after(name):
 class Slave3:
     """An FMU3Slave of one scene with value references by name."""
 
-    def __init__(self, name: str, event_mode=False, early_return=False, intermediate_update=None, start_values=None):
+    def __init__(self, name: str, event_mode=False, early_return=False, intermediate_update=None, start_values=None, log_message=None):
         fmu = FMU3_DIR / f"{name}.fmu"
         self.md = read_model_description(str(fmu))
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.types = {v.name: v.type for v in self.md.modelVariables}
         self.s = FMU3Slave(guid=self.md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
-        self.s.instantiate(eventModeUsed=event_mode, earlyReturnAllowed=early_return, intermediateUpdate=intermediate_update)
+        self.s.instantiate(eventModeUsed=event_mode, earlyReturnAllowed=early_return, intermediateUpdate=intermediate_update, logMessage=log_message)
         for k, v in (start_values or {}).items():
             self.s.setFloat64([self.vr[k]], [v])
         self.s.enterInitializationMode(startTime=0.0)
@@ -333,6 +333,37 @@ def test_intermediate_update_early_return_request_is_honoured():
     assert len(calls) == 2 and last == calls[1][0] and s.get("impacts") == 2
     assert all(c[1] and c[2] and not c[3] for c in calls)
     assert ulps(calls[0][0], FREE_FIRST_IMPACT) <= ULP4
+    s.free()
+
+
+def test_a_call_from_inside_the_intermediate_update_is_refused_with_a_message():
+    """A call into the instance from inside its intermediate-update
+    callback is refused (the running call owns the instance) and says why
+    through the logger (it returned fmi3Error without a message)."""
+    from ctypes import byref, c_double, c_uint32, c_void_p
+
+    messages, seen = [], []
+
+    def log_message(env, status, category, message):
+        messages.append((status, message.decode()))
+
+    def intermediate_update(env, time, set_requested, get_allowed, step_finished, can_return_early, requested, requested_time):
+        if not seen:
+            before = len(messages)
+            value = (c_double * 1)()
+            status = s.s.dll.fmi3GetFloat64(c_void_p(s.s.component), (c_uint32 * 1)(0), 1, value, 1)
+            state = c_void_p()
+            status_state = s.s.dll.fmi3GetFMUState(c_void_p(s.s.component), byref(state))
+            seen.append((status, status_state, messages[before:]))
+
+    s = Slave3("PinnedBeamStop", early_return=True, intermediate_update=intermediate_update, start_values=FREE_VIBRATION, log_message=log_message)
+    s.step(1.0)
+    assert seen, "the callback ran"
+    status, status_state, logged = seen[0]
+    assert (status, status_state) == (3, 3)  # fmi3Error
+    assert [m for _, m in logged if "fmi3GetFloat64" in m and "intermediate-update callback" in m], logged
+    assert [m for _, m in logged if "fmi3GetFMUState" in m], logged
+    s.step(0.1)  # the instance goes on
     s.free()
 
 

@@ -91,6 +91,15 @@ def test_unknown_category_is_an_error(make_instance):
     inst.step(0.1)
 
 
+def test_importer_text_in_a_message_has_its_hash_signs_escaped(make_instance):
+    """FMI 2.0.4 section 2.1.5: the logger reads `#r1#` as variable 1's
+    name and `##` as one `#`; text echoed from the importer is escaped."""
+    inst = make_instance(logging_on=True)
+    with pytest.raises(FMICallException):
+        inst.slave.setDebugLogging(True, ["#r1#"])
+    assert any('"##r1##"' in m for m in inst.log.errors()), inst.log.text()
+
+
 def test_no_event_messages_when_logging_is_off(make_instance):
     inst = make_instance(logging_on=False)
     inst.initialize(FREE_VIBRATION)

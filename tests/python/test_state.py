@@ -132,6 +132,95 @@ def test_corrupt_serialized_state_is_rejected(make_instance):
     inst.step(0.5)  # still usable
 
 
+def header_fields(data: bytes) -> dict:
+    """Offsets of a serialized state's times (src/fmi/serialize.rs, and the
+    modal simulation's first fields, src/kinds/modal/sim/codec.rs)."""
+    import struct
+
+    o = 8 + 4  # magic, format version
+    (guid_len,) = struct.unpack_from("<I", data, o)
+    o += 4 + guid_len + 4  # GUID, instance state
+    fields = {"start": o, "stop flag": o + 8, "stop": o + 9, "last successful": o + 17}
+    o += 17 + 8 + 3  # ... last successful, terminated, pending, choices
+    for _ in range(2):  # parameters, inputs
+        (n,) = struct.unpack_from("<I", data, o)
+        o += 4 + 8 * n
+    assert data[o] == 1, "a state with a simulation"
+    o += 1 + 3 * 4  # has_sim, the simulation's version, modes, stops
+    fields.update({"time": o, "anchor time": o + 8})
+    return fields
+
+
+def test_serialized_times_a_run_cannot_have_are_refused(make_instance):
+    """A state whose anchor lies before its start, whose last successful
+    step ends after its time, or whose time is past its stop time is
+    refused with a message (accepted, the first gave NaN outputs under
+    fmi2OK, the others refused every later step)."""
+    import struct
+
+    from conftest import FMICallException
+
+    inst = make_instance().initialize(stop_time=10.0)
+    inst.step(0.5)
+    state = inst.slave.getFMUstate()
+    data = inst.slave.serializeFMUstate(state)
+    inst.slave.freeFMUstate(state)
+    at = header_fields(data)
+    assert struct.unpack_from("<d", data, at["time"])[0] == 0.5
+    forgeries = {
+        "anchor": [("anchor time", -5.5e303)],
+        "last successful time": [("last successful", 1e6)],
+        "stop time": [("stop", 0.25)],
+    }
+    for expect, changes in forgeries.items():
+        bad = bytearray(data)
+        for field, value in changes:
+            struct.pack_into("<d", bad, at[field], value)
+        inst.log.clear()
+        with pytest.raises(FMICallException):
+            inst.slave.deSerializeFMUstate(bytes(bad))
+        assert any(expect in m for m in inst.log.errors()), (expect, inst.log.errors())
+    s = inst.slave.deSerializeFMUstate(data)  # the true state restores
+    inst.slave.setFMUstate(s)
+    inst.slave.freeFMUstate(s)
+    inst.step(0.5)
+
+
+def test_a_state_not_live_in_this_fmu_is_refused(make_instance, unzipdir, tmp_path):
+    """A state pointer is looked up before it is read: one freed with the
+    instance that made it, or one made by another copy of the library (as
+    another FMU's would be), is refused with a message, not read (they
+    crashed the process or restored another model's state)."""
+    import shutil
+
+    from conftest import FMICallException
+
+    a = make_instance(name="a").initialize()
+    a.step(0.5)
+    b = make_instance(name="b").initialize()
+    state = a.slave.getFMUstate()
+    b.slave.setFMUstate(state)  # another instance of the same FMU: fine
+    b.time = 0.5
+    a.free()
+    for call in (lambda: b.slave.setFMUstate(state), lambda: b.slave.serializeFMUstate(state), lambda: b.slave.freeFMUstate(state)):
+        b.log.clear()
+        with pytest.raises(FMICallException):
+            call()
+        assert any("not one this FMU handed out" in m for m in b.log.errors()), b.log.errors()
+
+    other = tmp_path / "copy"
+    shutil.copytree(unzipdir, other)
+    c = make_instance(name="c", unzipdir=other).initialize()
+    assert c.slave.dll._handle != b.slave.dll._handle, "two copies of the library"
+    foreign = c.slave.getFMUstate()
+    b.log.clear()
+    with pytest.raises(FMICallException):
+        b.slave.setFMUstate(foreign)
+    assert any("not one this FMU handed out" in m for m in b.log.errors()), b.log.errors()
+    c.slave.freeFMUstate(foreign)
+    b.step(0.5)
+
+
 def test_reset_reproduces_the_first_run(make_instance):
     inst = make_instance()
     inst.initialize(stop_time=10.0)

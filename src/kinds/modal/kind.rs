@@ -160,6 +160,10 @@ impl Run for ModalRun {
         self.sim.time()
     }
 
+    fn earliest_time(&self) -> f64 {
+        self.sim.earliest_time()
+    }
+
     fn shortest_period(&self) -> f64 {
         self.sim.model().shortest_period()
     }

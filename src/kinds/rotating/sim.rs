@@ -577,6 +577,12 @@ impl RotatingSimulation {
         self.time
     }
 
+    /// The anchor's time (the steps are replayed from there) or the
+    /// current contact's start, whichever is earlier.
+    pub fn earliest_time(&self) -> f64 {
+        self.anchor_time.min(self.contact_start)
+    }
+
     pub fn stats(&self) -> RotatingStats {
         let mut s = self.stats;
         s.rejected += self.solver.counts().1;

@@ -261,6 +261,11 @@ impl Simulation {
         self.state.time
     }
 
+    /// The anchor's time: the motion now is propagated from there.
+    pub fn earliest_time(&self) -> f64 {
+        self.state.anchor_time
+    }
+
     pub fn current(&self) -> &ModalState {
         &self.state.current
     }
