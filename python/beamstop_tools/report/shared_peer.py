@@ -15,8 +15,9 @@ Cases (`--cases`, default all; the scene's modes changed where the name says):
     hertz32   the same, 32 modes
     rot6      scenes/rotating_beam.json, 6 modes, 0.05 s        (RotatingBeamImpact)
     rot32     the same, 32 modes
-    rot40     the same, 40 modes (the largest n_modes a rotating scene admits)
-    rot64     the same, 64 modes (recorded as refused when the scene check refuses it)
+    rot40     the same, 40 modes
+    rot64     the same, 64 modes (a case the scene check refuses is recorded as
+              refused)
     spinup    scenes/spin_up.json, 4 modes, 30 s                (SpinUpBeam; no peer:
               error against the tolerance asked only)
 
