@@ -79,6 +79,26 @@ fn grazing_from_rest() {
     assert!(sim.is_stuck(0), "a load pushing into the stop from rest holds the beam on it");
 }
 
+/// A compliant stop at zero gap, touched at rest while the load pushes
+/// into it (HertzStop's base excitation; RigidAndHertzStops' Hertz stop
+/// beside its rigid one): the contact holds and the run goes on. Its
+/// error scale was the contact's alone, nothing at zero gap and speed, and
+/// the first step stuck at t = 1e-152 with the contact ending and starting
+/// again every 1.5e-156 s.
+#[test]
+fn a_compliant_stop_touched_at_rest_under_a_load_runs_on() {
+    for (name, stop, k, until) in [("hertz_stop", 0, 1e16, 2e-4), ("hertz_stop", 0, 1.088e10, 2e-4), ("rigid_and_hertz", 1, 1e8, 0.05)] {
+        let scene = common::scene(name);
+        assert_eq!(scene.stops[stop].law.parameters()[0].key, "K", "{name}");
+        let scene = with(scene, &[(ParamKey::StopGap(stop), 0.0), (ParamKey::Law(stop, 0), k)]);
+        let mut sim = start(&scene);
+        sim.advance_to(until).unwrap_or_else(|e| panic!("{name}, K = {k}: {e}"));
+        let events = sim.drain_events();
+        assert!(events.len() < 20, "{name}, K = {k}: {} events by t = {until}: {events:?}", events.len());
+        assert!(sim.stats().probes < 1_000_000, "{name}, K = {k}: {} search points", sim.stats().probes);
+    }
+}
+
 /// Event-free work is capped too: a load 1e3 times faster than the first
 /// mode over a step of 1000 time units stops at the cap with the time it
 /// reached, consistent and resumable.

@@ -144,3 +144,38 @@ fn clearance_and_simultaneous_impacts_conserve_energy_with_r_one() {
     // By symmetry the motion stays in the symmetric modes 1, 3, 5.
     assert!(sim.current().q[1].abs() < 1e-12 && sim.current().q[3].abs() < 1e-12);
 }
+
+/// A Hertz stop of vanishing stiffness engaged while the rigid stop beside
+/// it holds the beam (RigidAndHertzStops at the admitted minimum `K`, and
+/// at `K = 1e-6` with a loose tolerance) moves the beam as the rigid stop
+/// alone does, whose held phases are closed-form: at t = 2 (after 1.5 of
+/// holding) within 1e-9 of the motion's scale. The held reaction's
+/// polynomial went unchecked, and the steps such a stop allows (four
+/// periods of the fastest mode) let the held state drift until the
+/// reaction changed sign: energies of 1.5 to 4.1 against 1.86.
+#[test]
+fn a_vanishing_hertz_stop_beside_a_held_rigid_one_leaves_the_rigid_motion() {
+    let text = std::fs::read_to_string(format!("{}/scenes/rigid_and_hertz.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(json["stops"][1]["law"]["type"], "hertz");
+    let mut rigid_alone = json.clone();
+    rigid_alone["stops"].as_array_mut().unwrap().truncate(1);
+    let run = |j: &serde_json::Value| {
+        let mut sim = Simulation::new(Model::build(&Scene::from_json(&j.to_string()).unwrap()).unwrap(), 0.0).unwrap();
+        for k in 1..=200 {
+            sim.advance_to(k as f64 * 0.01).unwrap();
+        }
+        assert!(sim.is_stuck(0), "held at t = 2");
+        sim.current().clone()
+    };
+    let reference = run(&rigid_alone);
+    let scale = reference.q.amax();
+    for (k, tol, bound) in [(3.908454749658794e-11, 1e-12, 1e-9), (1e-6, 1e-8, 1e-6)] {
+        let mut weak = json.clone();
+        weak["stops"][1]["law"]["K"] = k.into();
+        weak["solver"]["integration_tolerance"] = tol.into();
+        let state = run(&weak);
+        let off = (&state.q - &reference.q).amax() / scale;
+        assert!(off < bound, "K = {k}, tolerance {tol}: q off by {off:e} of its scale");
+    }
+}

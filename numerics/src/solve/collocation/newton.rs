@@ -378,6 +378,19 @@ impl ForceCollocation {
             let sv = tol * (self.options.v_scale + y1v[j].abs().max(y0v[j].abs()));
             error = error.max(x.abs() / sq).max(v.abs() / sv);
         }
+        // A held contact's reaction is a collocated polynomial too: what it
+        // misses shows as the constraint's drift over the step (its rate is
+        // zero at the nodes only, and their quadrature of it is of the
+        // method's order), held to the tolerance as the laws' defects are,
+        // not below the coordinate's rounding. Unchecked, steps as long as
+        // a weak compliant stop beside it allows (four periods of the
+        // fastest mode) let the held state drift until its reaction
+        // changed sign.
+        for c in (0..nc).filter(|&c| forces.held(c)) {
+            let (p1, p0) = (self.coordinate(c, &y1).0, self.coordinate(c, y0).0);
+            let size: f64 = self.contacts[c].d.iter().zip(&y1.as_slice()[..n]).map(|(dj, q)| (dj * q).abs()).sum();
+            error = error.max((p1 - p0).abs() / (tol * self.options.q_scale * self.amax[c]).max(ROUNDING * size));
+        }
         if !error.is_finite() || !y1.iter().all(|x| x.is_finite()) {
             return Err(NewtonFailure);
         }

@@ -62,6 +62,18 @@ impl FreeDynamics {
         self.mode_loads = mode_loads(&self.oscillators, &forcing);
         self.forcing = forcing;
     }
+
+    /// The scale of the motion the loads drive, per mode at most: the
+    /// steady response's displacement and rate bounds (a near-resonant
+    /// harmonic counted by its static response `|b| / omega^2`, its rate
+    /// by `|b| / omega`). Zero without loads.
+    pub fn load_scale(&self) -> (f64, f64) {
+        self.oscillators.iter().zip(&self.mode_loads).fold((0.0, 0.0), |(q, v), (osc, load)| {
+            let w = osc.omega.max(f64::MIN_POSITIVE);
+            let resonant = load.resonant_bounds[0];
+            (q.max(load.steady_bounds[0] + resonant / (w * w)), v.max(load.steady_bounds[1] + resonant / w))
+        })
+    }
 }
 
 fn mode_loads(oscillators: &[Oscillator], forcing: &ModalForcing) -> Vec<ModeLoad> {

@@ -575,6 +575,11 @@ impl Simulation {
         let mut anchor = DVector::zeros(dim);
         anchor.rows_mut(0, n).copy_from(&self.state.anchor.q);
         anchor.rows_mut(n, n).copy_from(&self.state.anchor.qd);
+        // The loads' steady response scales the motion too: a stop at zero
+        // gap touched at rest, or at a vanishing speed, sets no scale of
+        // its own (an error scale of nothing took steps of 1e-156 s).
+        let (load_q, load_v) = self.dynamics.load_scale();
+        let (scale_q, scale_v) = (scale_q.max(load_q), scale_v.max(load_v));
         let tol = self.model.integration_tolerance;
         let q_scale = scale_q.max(self.state.anchor.q.amax()).max(f64::MIN_POSITIVE);
         let v_scale = (q_scale * slowest).max(scale_v).max(self.state.anchor.qd.amax()).max(f64::MIN_POSITIVE);
