@@ -151,6 +151,14 @@ impl Simulation {
                     counters.dissipated += m.law.energy_left_at_release(penetration);
                     self.record(t, EventKind::Separation { stop: i, penetration });
                 }
+                Contact::Pressed if was[i] == Contact::Penetrated => {
+                    // A push resumed inside the surface: the spring holds
+                    // its energy at this penetration again (counted as
+                    // left in the stop since the push ended), as the
+                    // rotating kind counts it.
+                    let penetration = self.geometries[i].penetration(&st.q).max(0.0);
+                    counters.dissipated -= m.law.energy_left_at_release(penetration);
+                }
                 _ => {}
             }
         }
