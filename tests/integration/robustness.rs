@@ -240,7 +240,12 @@ fn the_energy_balance_counts_against_the_cap() {
     let mut sim = start(&scene);
     let t0 = std::time::Instant::now();
     match sim.advance_to(1e5) {
-        Err(SimError::TooMuchWork { time, .. }) => assert!(time > 0.0 && time < 1e5),
+        Err(SimError::TooMuchWork { time, work, .. }) => {
+            assert!(time > 0.0 && time < 1e5);
+            // The work reported is what the cap counts (the search's points
+            // reported alone said 23 units of a cap of 400,000).
+            assert!(work > 199_000 && work <= 200_000, "{work} units of work reported at a cap of 200,000");
+        }
         other => panic!("expected the work cap, got {other:?}"),
     }
     // 200k units of work: well under a second (a generous bound, not a benchmark).

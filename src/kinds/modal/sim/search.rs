@@ -303,8 +303,11 @@ impl Simulation {
                 let room = (budget - probes as i64 as f64 - nodes).max(0.0);
                 let at = if more > room { (counted + room / node_rate).clamp(counted, l) } else { l };
                 self.stop_at(at);
-                self.stats.work = base + (probes - 1) + nodes as u64;
-                return Err(SimError::TooMuchWork { time: at, work: probes - 1, cap: "solver.max_probes_per_step" });
+                // The work the cap counts: the search points and the
+                // accounting's quadrature nodes.
+                let work = (probes - 1) + nodes as u64;
+                self.stats.work = base + work;
+                return Err(SimError::TooMuchWork { time: at, work, cap: "solver.max_probes_per_step" });
             }
             nodes += more;
             counted = l;
