@@ -37,7 +37,7 @@ unsafe fn mat_vec_avx(a: &[f64], x: &[f64], out: &mut [f64], start: f64) {
 /// Fewer rows than this run in the baseline build: AVX's four lanes
 /// leave more of a short column to the scalar remainder (7 rows: 9 % more
 /// instructions over the rotating beam's 6-mode run, 16 % fewer at 64).
-pub const WIDE_ROWS: usize = 16;
+const WIDE_ROWS: usize = 16;
 
 /// Below this many rows the sums stay in registers for the whole product
 /// (the rows a constant, unrolled: one pass over `a`, none over `out`).
@@ -139,6 +139,13 @@ pub fn mat_vecs(a: &[f64], xs: &[&[f64]], outs: &mut [&mut [f64]], start: f64) {
         batch!(1 2 3 4 5 6);
     }
 }
+
+/// From this many rows [`mat_vecs`] pays over single products for the
+/// rotating beam's remainders at a step's nodes (the DWZ scene at 1e-8,
+/// fastest of 7 to 9 runs: 48 modes 1.04 times as fast, 64 modes 1.10;
+/// 24 and 32 modes 2 % slower, their matrices staying in the first-level
+/// cache between single products).
+pub const BATCH_ROWS: usize = 40;
 
 /// Vectors per pass of [`mat_vecs`] (the exponential integrator's nodes
 /// past the step's start); with eight rows, twelve sums in registers.

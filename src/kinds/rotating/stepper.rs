@@ -23,7 +23,7 @@ use crate::contact::Contact;
 use crate::structure::rotating::{AccelerationScratch, Hub, ModalEquations, ModalPoint};
 use crate::solve::dop853::{Dop853, Rhs};
 use crate::solve::exponential::{Exponential, ModalRhs};
-use crate::solve::matvec::WIDE_ROWS;
+use crate::solve::matvec::BATCH_ROWS;
 use crate::solve::radau::{Radau, RadauOptions, Tol};
 
 /// Which integrator a rotating run uses (`solver.method`).
@@ -90,12 +90,11 @@ impl ModalRhs for PhaseRhs {
         true
     }
 
-    /// Below [`WIDE_ROWS`] modal coordinates point by point: the batch's
-    /// products run as single ones there, and its set-up costs (2.5 % at 6
-    /// modes).
+    /// Below [`BATCH_ROWS`] modal coordinates point by point: the batch
+    /// does not pay there.
     fn modal_remainders(&mut self, ts: &[f64], qs: &[&[f64]], gs: &mut [&mut [f64]]) -> bool {
         let Some(modal) = self.modal.as_mut() else { return false };
-        if self.phase.extras() / 2 < WIDE_ROWS {
+        if self.phase.extras() / 2 < BATCH_ROWS {
             return ts.iter().zip(qs).zip(gs.iter_mut()).all(|((&t, q), g)| self.modal_remainder(t, q, g));
         }
         modal_rates_at(&self.phase, modal, ts, qs, gs);
