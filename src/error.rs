@@ -66,20 +66,20 @@ impl fmt::Display for SimError {
             ),
             SimError::TooManyEvents { time, count } => write!(
                 f,
-                "{count} events within one step near t = {time}: raise solver.max_events_per_step (or, at a rigid stop, \
+                "{count} events within one step near t = {time:?}: raise solver.max_events_per_step (or, at a rigid stop, \
                  the chatter threshold eps)"
             ),
             SimError::TooMuchWork { time, work, cap } => write!(
                 f,
-                "the work cap of one step ({cap}) was reached after {work} units of work, at t = {time}: take shorter \
+                "the work cap of one step ({cap}) was reached after {work} units of work, at t = {time:?}: take shorter \
                  communication steps or raise {cap}"
             ),
             SimError::Contact(e) => write!(f, "{e}"),
-            SimError::Backwards { now, requested } => write!(f, "requested time {requested} lies before the current time {now}"),
+            SimError::Backwards { now, requested } => write!(f, "requested time {requested:?} lies before the current time {now:?}"),
             SimError::NonFinite { what, value } => write!(f, "{what} = {value}: must be finite"),
             SimError::NotAnInput(m) => write!(f, "cannot set {m}"),
             SimError::Unsupported(m) => write!(f, "{m}"),
-            SimError::Integration { time, message } => write!(f, "the integration failed at t = {time}: {message}"),
+            SimError::Integration { time, message } => write!(f, "the integration failed at t = {time:?}: {message}"),
         }
     }
 }

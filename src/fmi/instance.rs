@@ -521,7 +521,7 @@ impl Instance {
             Err(e) if e.recoverable() => {
                 self.last_successful_time = reached;
                 self.machine = ModelState::StepDiscarded;
-                self.logger.status(Status::Discard, &format!("{name}: {e}; the step was computed up to t = {reached}"));
+                self.logger.status(Status::Discard, &format!("{name}: {e}; the step was computed up to t = {reached:?}"));
                 Err(Status::Discard)
             }
             Err(e) => {

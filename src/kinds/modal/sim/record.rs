@@ -53,7 +53,8 @@ impl Event {
             EventKind::Stick { reaction, .. } => format!("t = {t:?}: sticking starts at stop '{name}', reaction {reaction:.6e}"),
             EventKind::Release { .. } => format!("t = {t:?}: release from stop '{name}' (reaction changed sign)"),
             EventKind::Graze { .. } => format!("t = {t:?}: grazing contact at stop '{name}' (zero velocity, no impact)"),
-            EventKind::Contact { speed, .. } => format!("t = {t:?}: contact starts at stop '{name}', approach speed {speed:.6e}"),
+            // (+ 0.0: a touch at rest reads 0, not -0.)
+            EventKind::Contact { speed, .. } => format!("t = {t:?}: contact starts at stop '{name}', approach speed {:.6e}", speed + 0.0),
             EventKind::Separation { penetration, .. } => {
                 format!("t = {t:?}: contact ends at stop '{name}' (force zero), penetration left {penetration:.6e}")
             }
