@@ -93,10 +93,10 @@ impl Simulation {
         let mut y = DVector::zeros(seg.phase.dim());
         y.rows_mut(0, n).copy_from(&st.q);
         y.rows_mut(n, n).copy_from(&st.qd);
-        let pushes = seg.reaction_model.as_ref().map(|r| r.pushes(&seg.phase, t, &y));
+        let pushes = seg.equations.pushes(&seg.phase, t, &y);
         for (i, c) in seg.phase.contacts.iter().enumerate() {
             let force = if c.held {
-                pushes.as_ref().map_or(0.0, |p| p[i])
+                pushes[i]
             } else {
                 // The law's force inside the stop, its limit at the
                 // surface (a linear damping's `C p'` at an onset).

@@ -98,27 +98,36 @@ pub(super) struct IntegratedSegment {
     /// coordinates.
     direction_of: Vec<usize>,
     coordinates: std::cell::RefCell<Vec<(f64, f64)>>,
-    /// With a held rigid stop among the contacts: what its reaction
-    /// depends on besides the state.
-    pub reaction_model: Option<ReactionModel>,
+    /// What the acceleration depends on besides the state: a held stop's
+    /// reaction, a force's rate.
+    pub equations: PhaseEquations,
 }
 
-/// The modal loads and coefficients a held stop's reaction is formed from
-/// ([`NonlinearPhase::reactions`]).
+/// The modal loads and coefficients the acceleration is formed from (a
+/// held stop's reaction: [`NonlinearPhase::reactions`]; a force's rate:
+/// [`NonlinearPhase::acceleration`]).
 #[derive(Clone, Debug)]
-pub(super) struct ReactionModel {
+pub(super) struct PhaseEquations {
     pub forcing: ModalForcing,
     /// `omega_j^2` and `2 a_j`.
     pub stiffness: Vec<f64>,
     pub damping: Vec<f64>,
 }
 
-impl ReactionModel {
+impl PhaseEquations {
     /// Every contact's push at `t` in `y` (zero but for the held ones).
     pub fn pushes(&self, phase: &NonlinearPhase, t: f64, y: &DVector<f64>) -> Vec<f64> {
         let mut f = DVector::zeros(phase.n);
         self.forcing.derivative(t, 0, &mut f);
         phase.reactions(y.as_slice(), &f, &self.stiffness, &self.damping)
+    }
+
+    /// `p''` of contact `i` at `t` in `y`.
+    pub fn penetration_acceleration(&self, phase: &NonlinearPhase, i: usize, t: f64, y: &DVector<f64>) -> f64 {
+        let mut f = DVector::zeros(phase.n);
+        self.forcing.derivative(t, 0, &mut f);
+        let g = &phase.contacts[i].geometry;
+        g.side * g.w.dot(&phase.acceleration(y.as_slice(), &f, &self.stiffness, &self.damping))
     }
 }
 
@@ -172,7 +181,7 @@ impl IntegratedSegment {
         match e {
             Evaluator::Nonlinear { contact, watch: Watch::Reaction } => {
                 // A held stop's push, -side lambda.
-                self.reaction_model.as_ref().map_or(0.0, |r| r.pushes(&self.phase, t, y)[*contact])
+                self.equations.pushes(&self.phase, t, y)[*contact]
             }
             Evaluator::Nonlinear { contact, watch } => {
                 let (p, pd) = self.phase.penetration(*contact, y.as_slice());
@@ -200,7 +209,7 @@ impl IntegratedSegment {
     /// is formed from (for the level a decoder takes as zero); `None` when
     /// the stop is not held in this phase.
     pub fn held_push(&self, stop: usize, t: f64, state: &ModalState) -> Option<(f64, f64)> {
-        let model = self.reaction_model.as_ref()?;
+        let model = &self.equations;
         let i = self.phase.contacts.iter().position(|c| c.stop == stop && c.held)?;
         let n = self.phase.n;
         let mut y = DVector::zeros(self.phase.dim());
@@ -299,12 +308,15 @@ impl IntegratedSegment {
         // the law's to decide: a contact whose separation was placed late
         // by a loose tolerance, the point back on its way in, switches
         // there.)
-        let rising = |at: &DVector<f64>, c: usize| self.rate_in(c, at).is_some_and(|r| r > 0.0);
-        let mut passed = located.at_zero.first().is_some_and(|&(c, _)| rising(&at, c) && self.below_by_rounding(c, located.from, oscillators.iter().map(|o| o.omega)));
+        let rising = |te: f64, at: &DVector<f64>, c: usize| self.rate_in(c, te, at).is_some_and(|r| r > 0.0);
+        let mut passed = located
+            .at_zero
+            .first()
+            .is_some_and(|&(c, _)| self.is_geometric(c) && rising(te, &at, c) && self.below_by_rounding(c, located.from, oscillators.iter().map(|o| o.omega)));
         if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !passed) {
             for _ in 0..4 {
                 let g = self.evaluate(&self.evaluators[c], te, &at);
-                let rate = self.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                let rate = self.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 let next = te - g / rate;
                 if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
                     break;
@@ -320,7 +332,7 @@ impl IntegratedSegment {
                 if g <= 0.0 {
                     break;
                 }
-                let rate = self.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                let rate = self.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 // Within the step: its samples and steps cover no further
                 // (a slope near zero would send it far past them).
                 let next = (te - g / rate).max(te + 4.0 * f64::EPSILON * te.abs()).min(t1);
@@ -346,7 +358,7 @@ impl IntegratedSegment {
             spurious = te == t1 && g > 0.0;
             // Above zero and rising where the steps ended: the dense
             // output's dip is its error, not the motion's.
-            passed = g > 0.0 && rising(&at, c);
+            passed = g > 0.0 && rising(te, &at, c);
         }
         Refinement::Done(Refined { te, at, spurious, passed })
     }
@@ -371,9 +383,10 @@ impl IntegratedSegment {
         value < 0.0 && value >= -64.0 * f64::EPSILON * size
     }
 
-    /// The rate of watched function `i` in the integrated state `y`, for
-    /// the geometric ones.
-    fn rate_in(&self, i: usize, y: &DVector<f64>) -> Option<f64> {
+    /// The rate of watched function `i` at `t` in the integrated state
+    /// `y`: for the geometric ones, and for a force that ended its push
+    /// inside the stop ([`Self::resumption_rate`]).
+    fn rate_in(&self, i: usize, t: f64, y: &DVector<f64>) -> Option<f64> {
         let n = self.phase.n;
         let rates = &y.as_slice()[n..2 * n];
         let dot = |a: &[f64], sign: f64| sign * a.iter().zip(rates).map(|(x, d)| x * d).sum::<f64>();
@@ -384,10 +397,38 @@ impl IntegratedSegment {
                 match watch {
                     Watch::Penetration => Some(dot(g.w.as_slice(), g.side)),
                     Watch::Gap => Some(dot(g.w.as_slice(), -g.side)),
+                    Watch::NegatedForce => Some(self.resumption_rate(*contact, t, y)),
                     _ => None,
                 }
             }
         }
+    }
+
+    /// The rate of a penetrated stop's negated law force `-F(p, p')`
+    /// along the motion, `-(F_p p' + F_p' p'')` with `p''` from the
+    /// equations of motion at `t` in `y`: the switch locator's search
+    /// between samples sees a push that resumes and ends again inside one
+    /// sample interval (with no rate a push as short as 7 ms went unseen
+    /// in 40 ms samples: its force acted, clamped by the law, but the
+    /// phase was never pressed, and the collocation stepped over the
+    /// force's corners).
+    fn resumption_rate(&self, contact: usize, t: f64, y: &DVector<f64>) -> f64 {
+        let (p, pd) = self.phase.penetration(contact, y.as_slice());
+        let c = &self.phase.contacts[contact];
+        let (_, dp, dpd) = c.law.watched(Watch::NegatedForce, p, pd, c.onset_speed);
+        dp * pd + dpd * self.equations.penetration_acceleration(&self.phase, contact, t, y)
+    }
+
+    /// Whether evaluator `i`'s rate needs the whole state (not only its
+    /// direction's coordinates).
+    fn rate_needs_state(&self, i: usize) -> bool {
+        matches!(self.evaluators[i], Evaluator::Nonlinear { watch: Watch::NegatedForce, .. })
+    }
+
+    /// Whether evaluator `i` is a geometric function (a gap or a
+    /// penetration).
+    fn is_geometric(&self, i: usize) -> bool {
+        matches!(self.evaluators[i], Evaluator::Affine(..) | Evaluator::Nonlinear { watch: Watch::Gap | Watch::Penetration, .. })
     }
 }
 
@@ -423,19 +464,21 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
-        if let Some(coordinates) = self.watched_at(t) {
-            return self.watched_rate(i, &coordinates);
+        if !self.rate_needs_state(i) {
+            if let Some(coordinates) = self.watched_at(t) {
+                return self.watched_rate(i, &coordinates);
+            }
         }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
-        self.rate_in(i, &y)
+        self.rate_in(i, t, &y)
     }
 
     fn values_and_rates(&self, t: f64, values: &mut [f64], rates: &mut [Option<f64>]) {
         if let Some(coordinates) = self.watched_at(t) {
             for (i, (value, rate)) in values.iter_mut().zip(rates.iter_mut()).enumerate() {
                 *value = self.watched_value(i, &coordinates);
-                *rate = self.watched_rate(i, &coordinates);
+                *rate = if self.rate_needs_state(i) { self.rate(i, t) } else { self.watched_rate(i, &coordinates) };
             }
             return;
         }
@@ -443,7 +486,7 @@ impl DenseWatch for IntegratedSegment {
         self.dense_y_at(t, &mut y);
         for (i, (value, rate)) in values.iter_mut().zip(rates.iter_mut()).enumerate() {
             *value = self.evaluate(&self.evaluators[i], t, &y);
-            *rate = self.rate_in(i, &y);
+            *rate = self.rate_in(i, t, &y);
         }
     }
 }
@@ -591,13 +634,24 @@ impl Simulation {
         let corner = phase.contacts.iter().map(|c| c.law.corner_exponent()).fold(f64::INFINITY, f64::min);
         let corner_fraction = tol.powf(1.0 / (corner + 2.0));
         let h_init = quarter * corner_fraction.min(0.25);
-        let options = CollocationOptions { tol, q_scale, v_scale, h_init, h_max: 16.0 * quarter, corner_fraction };
+        // A penetrated stop's force watch carries the rate p', in which
+        // each mode's share is omega_j times its share of p: its rate (the
+        // switch locator's search between samples) turns with the fastest
+        // mode. A step of that mode's quarter period puts sixteen samples
+        // in its period, where the search sees every turn (a resumed push
+        // 3.5 ms long went unseen in 10 ms samples of an 8-mode beam).
+        let mut h_max = 16.0 * quarter;
+        if evaluators.iter().any(|e| matches!(e, Evaluator::Nonlinear { watch: Watch::NegatedForce, .. })) {
+            let fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
+            h_max = h_max.min(0.25 * std::f64::consts::TAU / fastest.max(slowest));
+        }
+        let options = CollocationOptions { tol, q_scale, v_scale, h_init: h_init.min(h_max), h_max, corner_fraction };
         let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
-        let reaction_model = phase.contacts.iter().any(|c| c.held).then(|| ReactionModel {
+        let equations = PhaseEquations {
             forcing: self.dynamics.forcing.clone(),
             stiffness: self.dynamics.oscillators.iter().map(|o| o.omega * o.omega).collect(),
             damping: self.dynamics.oscillators.iter().map(|o| 2.0 * o.a).collect(),
-        });
+        };
         // The directions the switch locator reads: each engaged contact's
         // (its penetration, rate and force) and each open stop's gap.
         let mut directions: Vec<DVector<f64>> = Vec::new();
@@ -641,7 +695,7 @@ impl Simulation {
             anchor_time: self.state.anchor_time,
             anchor,
             steps: 0,
-            reaction_model,
+            equations,
         })
     }
 
@@ -799,7 +853,7 @@ impl Simulation {
                     // the approach speed an impact reports); where the
                     // state's rises, the dip the chord crossed lies behind
                     // it, and the chord's slope says so.
-                    let slope = seg.rate_in(c, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                    let slope = seg.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                     (c, Jet { d: [value.min(0.0), slope, 0.0, 0.0], noise: [0.0; 4], slack: 0.0 })
                 })
                 .collect();

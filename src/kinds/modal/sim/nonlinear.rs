@@ -73,6 +73,26 @@ impl NonlinearPhase {
     /// there and the modes' `omega^2` and `2 a`: the forces that keep
     /// `side_i w_i . q'' = 0` for every held contact (VSM12 eq. 33).
     pub fn reactions(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> Vec<f64> {
+        let accel = self.acceleration_without_holds(y, f, stiffness, damping);
+        self.held_reactions(&accel)
+    }
+
+    /// `q''` in state `y` (the loads `f` there, the modes' `omega^2` and
+    /// `2 a`): the free acceleration less every engaged stop's push, the
+    /// held ones' reactions included.
+    pub fn acceleration(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> DVector<f64> {
+        let mut accel = self.acceleration_without_holds(y, f, stiffness, damping);
+        let pushes = self.held_reactions(&accel);
+        for (c, push) in self.contacts.iter().zip(pushes) {
+            if c.held {
+                accel.axpy(-c.geometry.side * push, &c.geometry.w, 1.0);
+            }
+        }
+        accel
+    }
+
+    /// `q''` less the held contacts' reactions.
+    fn acceleration_without_holds(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> DVector<f64> {
         let n = self.n;
         let mut accel = DVector::from_fn(n, |j, _| f[j] - stiffness[j] * y[j] - damping[j] * y[n + j]);
         for (i, c) in self.contacts.iter().enumerate() {
@@ -81,6 +101,12 @@ impl NonlinearPhase {
                 accel.axpy(-c.geometry.side * c.force(p, pd).0, &c.geometry.w, 1.0);
             }
         }
+        accel
+    }
+
+    /// The held contacts' pushes that cancel `accel` along their
+    /// directions (zero for the other contacts).
+    fn held_reactions(&self, accel: &DVector<f64>) -> Vec<f64> {
         let held: Vec<usize> = (0..self.contacts.len()).filter(|&i| self.contacts[i].held).collect();
         let mut out = vec![0.0; self.contacts.len()];
         if held.is_empty() {
@@ -88,7 +114,7 @@ impl NonlinearPhase {
         }
         let d = |i: usize| &self.contacts[i].geometry.w * self.contacts[i].geometry.side;
         let gram = DMatrix::from_fn(held.len(), held.len(), |a, b| d(held[a]).dot(&d(held[b])));
-        let rhs = DVector::from_fn(held.len(), |a, _| d(held[a]).dot(&accel));
+        let rhs = DVector::from_fn(held.len(), |a, _| d(held[a]).dot(accel));
         if let Some(x) = gram.lu().solve(&rhs) {
             for (a, &i) in held.iter().enumerate() {
                 out[i] = x[a];
