@@ -316,7 +316,7 @@ impl IntegratedSegment {
         if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !passed) {
             for _ in 0..4 {
                 let g = self.evaluate(&self.evaluators[c], te, &at);
-                let rate = self.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                let rate = self.refinement_rate(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 let next = te - g / rate;
                 if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
                     break;
@@ -332,7 +332,7 @@ impl IntegratedSegment {
                 if g <= 0.0 {
                     break;
                 }
-                let rate = self.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                let rate = self.refinement_rate(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 // Within the step: its samples and steps cover no further
                 // (a slope near zero would send it far past them).
                 let next = (te - g / rate).max(te + 4.0 * f64::EPSILON * te.abs()).min(t1);
@@ -397,26 +397,38 @@ impl IntegratedSegment {
                 match watch {
                     Watch::Penetration => Some(dot(g.w.as_slice(), g.side)),
                     Watch::Gap => Some(dot(g.w.as_slice(), -g.side)),
-                    Watch::NegatedForce => Some(self.resumption_rate(*contact, t, y)),
+                    Watch::NegatedForce => Some(self.force_rate(*contact, Watch::NegatedForce, t, y)),
                     _ => None,
                 }
             }
         }
     }
 
-    /// The rate of a penetrated stop's negated law force `-F(p, p')`
-    /// along the motion, `-(F_p p' + F_p' p'')` with `p''` from the
-    /// equations of motion at `t` in `y`: the switch locator's search
-    /// between samples sees a push that resumes and ends again inside one
-    /// sample interval (with no rate a push as short as 7 ms went unseen
-    /// in 40 ms samples: its force acted, clamped by the law, but the
-    /// phase was never pressed, and the collocation stepped over the
+    /// The rate of a force watch (`watch`: the law force `F(p, p')` or
+    /// its negation) of `contact` along the motion, `F_p p' + F_p' p''`
+    /// with `p''` from the equations of motion at `t` in `y`. A penetrated
+    /// stop's negated force gives it to the switch locator, whose search
+    /// between samples then sees a push that resumes and ends again inside
+    /// one sample interval (with no rate a push as short as 7 ms went
+    /// unseen in 40 ms samples: its force acted, clamped by the law, but
+    /// the phase was never pressed, and the collocation stepped over the
     /// force's corners).
-    fn resumption_rate(&self, contact: usize, t: f64, y: &DVector<f64>) -> f64 {
+    fn force_rate(&self, contact: usize, watch: Watch, t: f64, y: &DVector<f64>) -> f64 {
         let (p, pd) = self.phase.penetration(contact, y.as_slice());
         let c = &self.phase.contacts[contact];
-        let (_, dp, dpd) = c.law.watched(Watch::NegatedForce, p, pd, c.onset_speed);
+        let (_, dp, dpd) = c.law.watched(watch, p, pd, c.onset_speed);
         dp * pd + dpd * self.equations.penetration_acceleration(&self.phase, contact, t, y)
+    }
+
+    /// The rate a zero's refinement steps by: [`Self::rate_in`], and a
+    /// pressed stop's force rate too (which the locator's samples go
+    /// without: the end of a push is a plain sign change, and its rate
+    /// at every sample would cost a whole state there).
+    fn refinement_rate(&self, i: usize, t: f64, y: &DVector<f64>) -> Option<f64> {
+        match self.evaluators[i] {
+            Evaluator::Nonlinear { contact, watch: Watch::Force } => Some(self.force_rate(contact, Watch::Force, t, y)),
+            _ => self.rate_in(i, t, y),
+        }
     }
 
     /// Whether evaluator `i`'s rate needs the whole state (not only its
