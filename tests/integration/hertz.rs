@@ -254,6 +254,51 @@ fn a_push_ending_inside_the_surface_ends_where_its_force_is_zero() {
     assert!(worst < 1e-5, "the force at a push's end: {worst:e} of its spring term");
 }
 
+/// A Hertz stop at zero gap touched at rest as the load starts to push
+/// into it (RigidAndHertzStops' load and Hertz stop, without its rigid
+/// stop) holds the contact at every tolerance down to the least: one
+/// contact, the motion RK4's (undamped), and the Hunt-Crossley contact's
+/// the same at 1e-12, 1e-13 and 1e-14. The point lies closer to the
+/// surface than the collocation's error for a while (p = c t^3): at 1e-13
+/// a dip of the numerical motion 1e-18 m deep became a separation and a
+/// touch at 7e-12 m/s (its Hunt-Crossley damping froze the contact), and
+/// at 1e-14 the contact ended and began every 1.6e-151 s until the work
+/// cap.
+#[test]
+fn a_hertz_stop_touched_at_rest_holds_at_every_tolerance() {
+    let text = std::fs::read_to_string(format!("{}/scenes/rigid_and_hertz.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let soft = json["stops"][1].clone();
+    json["stops"] = serde_json::json!([soft]);
+    json["stops"][0]["gap"] = 0.0.into();
+    let mut hysteretic = Vec::new();
+    for (law, tolerance) in [("undamped", 1e-12), ("undamped", 1e-13), ("undamped", 1e-14), ("hunt_crossley", 1e-12), ("hunt_crossley", 1e-13), ("hunt_crossley", 1e-14)] {
+        let mut scene = json.clone();
+        if law == "undamped" {
+            scene["stops"][0]["law"] = serde_json::json!({ "type": "hertz", "K": 3e4 });
+        }
+        scene["solver"]["integration_tolerance"] = tolerance.into();
+        let model = Model::build(&Scene::from_json(&scene.to_string()).unwrap()).unwrap();
+        let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+        sim.advance_to(1.0).unwrap_or_else(|e| panic!("{law} at {tolerance:e}: {e}"));
+        let events = sim.drain_events();
+        assert_eq!(events.len(), 1, "{law} at {tolerance:e}: {events:?}");
+        let st = sim.current();
+        let y = DVector::from_iterator(2 * st.q.len(), st.q.iter().chain(st.qd.iter()).copied());
+        if law == "undamped" {
+            let (reference, _) = rk4_reference(&model, &[1.0], 1e-5);
+            let off = (&y - &reference[0]).amax();
+            assert!(off < 1e-9 * reference[0].amax(), "{law} at {tolerance:e}: {off:e} off RK4");
+        } else {
+            hysteretic.push(y);
+        }
+    }
+    for y in &hysteretic[1..] {
+        let off = (y - &hysteretic[0]).amax();
+        assert!(off < 1e-10 * hysteretic[0].amax(), "Hunt-Crossley: {off:e} between tolerances");
+    }
+}
+
 #[test]
 fn energy_is_conserved_through_undamped_hertz_contacts() {
     // No load, no damping: structure energy + the stop's stored energy is

@@ -33,10 +33,12 @@
 //! needs a rate beyond four times those), or when the cubic through the
 //! ends' values and rates stays above half the lower end (a dip needs the
 //! function to leave that cubic by more, within a quarter of a step).
-//! Functions without a rate (forces) have no such search: a force that
-//! reaches zero and turns positive again within one sample interval is
-//! not seen (the laws clamp their force at zero, so the motion stays
-//! right).
+//! Functions without a rate (a pressed stop's force) have no such
+//! search: a force that reaches zero and turns positive again within one
+//! sample interval is not seen (the laws clamp their force at zero, so
+//! the motion stays right). A penetrated stop's force, whose turn back
+//! to a push is such a dip, gives its rate (the integrated phases form
+//! it from the equations of motion).
 
 /// Samples of the watched functions per accepted step.
 pub const SAMPLES: usize = 4;

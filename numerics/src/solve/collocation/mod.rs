@@ -196,6 +196,11 @@ pub struct ForceCollocation {
 const GRADING: f64 = 4.0;
 
 impl ForceCollocation {
+    /// The step-size control it was made with.
+    pub fn options(&self) -> &CollocationOptions {
+        &self.options
+    }
+
     pub fn new(dynamics: FreeDynamics, contacts: Vec<PointContact>, t0: f64, y0: DVector<f64>, options: CollocationOptions) -> Self {
         let n = dynamics.oscillators.len();
         let nc = contacts.len();
