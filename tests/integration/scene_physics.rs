@@ -147,12 +147,15 @@ fn clearance_and_simultaneous_impacts_conserve_energy_with_r_one() {
 
 /// A Hertz stop of vanishing stiffness engaged while the rigid stop beside
 /// it holds the beam (RigidAndHertzStops at the admitted minimum `K`, and
-/// at `K = 1e-6` with a loose tolerance) moves the beam as the rigid stop
-/// alone does, whose held phases are closed-form: at t = 2 (after 1.5 of
-/// holding) within 1e-9 of the motion's scale. The held reaction's
+/// at `K = 1e-6` at tolerances 1e-4 to 1e-8) moves the beam as the rigid
+/// stop alone does, whose held phases are closed-form: at t = 2 (after 1.5
+/// of holding) within 1e-9 of the motion's scale, and within 1e-8 at `K =
+/// 1e-6` (its force's own effect: 1.2e-10 to 1.9e-10). The held reaction's
 /// polynomial went unchecked, and the steps such a stop allows (four
 /// periods of the fastest mode) let the held state drift until the
-/// reaction changed sign: energies of 1.5 to 4.1 against 1.86.
+/// reaction changed sign: energies of 1.5 to 4.1 against 1.86. Checked,
+/// steps that long still left the reaction's polynomial spanning four
+/// periods of the constrained motion: 1.7e-6 off at 1e-8.
 #[test]
 fn a_vanishing_hertz_stop_beside_a_held_rigid_one_leaves_the_rigid_motion() {
     let text = std::fs::read_to_string(format!("{}/scenes/rigid_and_hertz.json", env!("CARGO_MANIFEST_DIR"))).unwrap();
@@ -170,7 +173,7 @@ fn a_vanishing_hertz_stop_beside_a_held_rigid_one_leaves_the_rigid_motion() {
     };
     let reference = run(&rigid_alone);
     let scale = reference.q.amax();
-    for (k, tol, bound) in [(3.908454749658794e-11, 1e-12, 1e-9), (1e-6, 1e-8, 1e-6)] {
+    for (k, tol, bound) in [(3.908454749658794e-11, 1e-12, 1e-9), (1e-6, 1e-4, 1e-8), (1e-6, 1e-6, 1e-8), (1e-6, 1e-8, 1e-8)] {
         let mut weak = json.clone();
         weak["stops"][1]["law"]["K"] = k.into();
         weak["solver"]["integration_tolerance"] = tol.into();

@@ -697,14 +697,22 @@ impl Simulation {
         let corner = phase.contacts.iter().map(|c| c.law.corner_exponent()).fold(f64::INFINITY, f64::min);
         let corner_fraction = tol.powf(1.0 / (corner + 2.0));
         let h_init = quarter * corner_fraction.min(0.25);
-        // A penetrated stop's force watch carries the rate p', in which
-        // each mode's share is omega_j times its share of p: its rate (the
-        // switch locator's search between samples) turns with the fastest
-        // mode. A step of that mode's quarter period puts sixteen samples
-        // in its period, where the search sees every turn (a resumed push
-        // 3.5 ms long went unseen in 10 ms samples of an 8-mode beam).
+        // Two things turn with the fastest mode whatever the contacts'
+        // own time scale, and cap the steps at its quarter period:
+        // - a penetrated stop's force watch carries the rate p', in which
+        //   each mode's share is omega_j times its share of p: its rate
+        //   (the switch locator's search between samples) turns with that
+        //   mode, and a step of a quarter period puts sixteen samples in
+        //   its period, where the search sees every turn (a resumed push
+        //   3.5 ms long went unseen in 10 ms samples of an 8-mode beam);
+        // - a held rigid stop's reaction follows the constrained motion,
+        //   which a step of four periods leaves to a polynomial of the
+        //   stages' degree (a weak Hertz stop beside a held rigid one: the
+        //   motion 2.6e-4 of its scale off the closed-form hold at
+        //   tolerance 1e-4, 1.7e-6 at 1e-8; now 1.2e-10 to 1.9e-10, the
+        //   weak force's own effect).
         let mut h_max = 16.0 * quarter;
-        if evaluators.iter().any(|e| matches!(e, Evaluator::Nonlinear { watch: Watch::NegatedForce, .. })) {
+        if evaluators.iter().any(|e| matches!(e, Evaluator::Nonlinear { watch: Watch::NegatedForce, .. })) || phase.contacts.iter().any(|c| c.held) {
             let fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
             h_max = h_max.min(0.25 * std::f64::consts::TAU / fastest.max(slowest));
         }
