@@ -24,6 +24,9 @@ const NEWTON_ITERATIONS: usize = 12;
 const CHORD_ITERATIONS: usize = 4;
 /// A Newton correction this many ulps of a contact coordinate is its rounding.
 const ROUNDING: f64 = 8.0 * f64::EPSILON;
+/// A held contact's drift over a step this many ulps of its coordinate's
+/// terms at the motion's scale is its rounding.
+const DRIFT_ROUNDING: f64 = 64.0 * f64::EPSILON;
 
 /// Working arrays of [`ForceCollocation::attempt`], kept between steps.
 #[derive(Clone, Debug, Default)]
@@ -382,14 +385,17 @@ impl ForceCollocation {
         // misses shows as the constraint's drift over the step (its rate is
         // zero at the nodes only, and their quadrature of it is of the
         // method's order), held to the tolerance as the laws' defects are,
-        // not below the coordinate's rounding. Unchecked, steps as long as
-        // a weak compliant stop beside it allows (four periods of the
-        // fastest mode) let the held state drift until its reaction
-        // changed sign.
+        // not below the coordinate's rounding at the motion's scale.
+        // Unchecked, steps as long as a weak compliant stop beside it
+        // allows (four periods of the fastest mode) let the held state
+        // drift until its reaction changed sign. Below that rounding (the
+        // drift over steps of 3e-8 s was 12 ulps of the coordinate at
+        // `q_scale` at tolerance 1e-14, whatever the step) the steps fell
+        // to that size and the run reached the work cap.
         for c in (0..nc).filter(|&c| forces.held(c)) {
             let (p1, p0) = (self.coordinate(c, &y1).0, self.coordinate(c, y0).0);
-            let size: f64 = self.contacts[c].d.iter().zip(&y1.as_slice()[..n]).map(|(dj, q)| (dj * q).abs()).sum();
-            error = error.max((p1 - p0).abs() / (tol * self.options.q_scale * self.amax[c]).max(ROUNDING * size));
+            let size: f64 = self.contacts[c].d.iter().zip(&y1.as_slice()[..n]).map(|(dj, q)| dj.abs() * q.abs().max(self.options.q_scale)).sum();
+            error = error.max((p1 - p0).abs() / (tol * self.options.q_scale * self.amax[c]).max(DRIFT_ROUNDING * size));
         }
         if !error.is_finite() || !y1.iter().all(|x| x.is_finite()) {
             return Err(NewtonFailure);
