@@ -153,6 +153,42 @@ fn a_beam_pressed_onto_a_rigid_stop_at_rest_sticks_there() {
     assert!(sim.is_stuck(0), "held at t = 1");
 }
 
+/// A linear-damped stop touched while a rigid stop holds the beam: its
+/// force jumps by `C v0` at the onset, the hold's reaction turns to a pull
+/// at that instant, and the hold is released there, at every tolerance
+/// (a fuzzed scene: power law n = 3, C = 300, a rigid stop with R = 0).
+/// Left to the phase's search, the release came a sample later at 1e-10,
+/// and at 1e-12 to 1e-14 the collocation of the pulling hold failed
+/// ("force collocation step fell to 3e-16 s").
+#[test]
+fn a_hold_is_released_where_a_damped_onset_beside_it_pulls() {
+    let text = r#"{
+  "name": "DampedOnsetBesideHold",
+  "structure": { "type": "beam", "support": "pinned-pinned", "modes": 4 },
+  "damping": { "zeta": 0.0 },
+  "loads": [ { "type": "distributed_harmonic", "name": "ld", "amplitude": 300, "omega": 100, "waveform": "sin" } ],
+  "stops": [
+    { "name": "h0", "x": 0.25, "gap": 0.1, "side": "negative", "law": { "type": "power_law", "n": 3.0, "K": 1223047090.4464798, "damping": "linear", "C": 300 } },
+    { "name": "r", "x": 0.4, "gap": 0.05, "side": "negative", "law": { "type": "restitution", "R": 0.0, "eps": 1e-6 } }
+  ],
+  "initial": { "qd": [1.9095754869195014, -27.275682609446733, 0.2893911322350551] }
+}"#;
+    let json: serde_json::Value = serde_json::from_str(text).unwrap();
+    let run = |tolerance: f64| {
+        let mut scene = json.clone();
+        scene["solver"] = serde_json::json!({ "integration_tolerance": tolerance });
+        let mut sim = start(&Scene::from_json(&scene.to_string()).unwrap());
+        sim.advance_to(1.0).unwrap_or_else(|e| panic!("tolerance {tolerance:e}: {e}"));
+        let events = sim.drain_events();
+        let onset = events.iter().position(|e| matches!(e.kind, EventKind::Contact { stop: 0, .. }) && e.time > 0.41).expect("the onset beside the hold");
+        assert!(matches!(events[onset + 1].kind, EventKind::Release { stop: 1 }) && events[onset + 1].time == events[onset].time, "tolerance {tolerance:e}: {:?}", &events[onset..onset + 2]);
+        sim.current().clone()
+    };
+    let (loose, tight) = (run(1e-10), run(1e-13));
+    let off = (&loose.q - &tight.q).amax() / tight.q.amax();
+    assert!(off < 1e-8, "q at tolerances 1e-10 and 1e-13: {off:e} of its scale apart");
+}
+
 /// Event-free work is capped too: a load 1e3 times faster than the first
 /// mode over a step of 1000 time units stops at the cap with the time it
 /// reached, consistent and resumable.

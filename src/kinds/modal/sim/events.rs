@@ -74,6 +74,7 @@ impl Simulation {
             self.rebuild_free_segment(false);
         } else {
             self.rebuild_segment()?;
+            self.release_pulled_holds(t)?;
         }
         // Report the sticks with their initial reaction.
         for &i in work.newly_held.iter() {
@@ -121,6 +122,39 @@ impl Simulation {
             counters.previous_impact = None;
             self.record(t, EventKind::Release { stop: i });
         }
+    }
+
+    /// Held stops whose reaction pulls as the new integrated phase begins
+    /// are released at once: a linear-damped stop's force jumps by `C v0`
+    /// at its onset, and a hold beside it can pull from that instant. Left
+    /// to the phase's search, the hold was released one sample later at
+    /// loose tolerances, and at 1e-12 to 1e-14 the collocation of a
+    /// pulling hold failed ("step fell to 3e-16 s").
+    fn release_pulled_holds(&mut self, t: f64) -> Result<(), SimError> {
+        #[cfg(feature = "power-law")]
+        {
+            let Segment::Integrated(seg) = &self.segment else { return Ok(()) };
+            let anchor = &self.state.anchor;
+            let pulled: Vec<usize> = (0..self.model.stops.len())
+                .filter(|&i| self.state.stops[i].contact == Contact::Held)
+                .filter(|&i| seg.held_push_entering(i, t, anchor).is_some_and(|(push, size)| push < -crate::solve::functional::NOISE * size))
+                .collect();
+            if pulled.is_empty() {
+                return Ok(());
+            }
+            for i in pulled {
+                let counters = &mut self.state.stops[i];
+                counters.stuck_time += t - counters.held_since;
+                counters.contact = Contact::Open;
+                counters.departing = [true, false];
+                counters.previous_impact = None;
+                self.record(t, EventKind::Release { stop: i });
+            }
+            self.mark_anchor_departing();
+            self.rebuild_segment()?;
+        }
+        let _ = t;
+        Ok(())
     }
 
     /// Compliant stops: the phase changes, the state does not.

@@ -122,6 +122,14 @@ impl PhaseEquations {
         phase.reactions(y.as_slice(), &f, &self.stiffness, &self.damping)
     }
 
+    /// [`Self::pushes`] with the contacts entering their surface pushing
+    /// ([`NonlinearPhase::reactions_entering`]).
+    pub fn pushes_entering(&self, phase: &NonlinearPhase, t: f64, y: &DVector<f64>) -> Vec<f64> {
+        let mut f = DVector::zeros(phase.n);
+        self.forcing.derivative(t, 0, &mut f);
+        phase.reactions_entering(y.as_slice(), &f, &self.stiffness, &self.damping)
+    }
+
     /// `q''` at `t` in `y`.
     pub fn acceleration(&self, phase: &NonlinearPhase, t: f64, y: &DVector<f64>) -> DVector<f64> {
         let mut f = DVector::zeros(phase.n);
@@ -214,13 +222,23 @@ impl IntegratedSegment {
     /// is formed from (for the level a decoder takes as zero); `None` when
     /// the stop is not held in this phase.
     pub fn held_push(&self, stop: usize, t: f64, state: &ModalState) -> Option<(f64, f64)> {
+        self.held_push_with(stop, t, state, false)
+    }
+
+    /// [`Self::held_push`] as the phase begins, the contacts entering
+    /// their surface pushing ([`NonlinearPhase::reactions_entering`]).
+    pub fn held_push_entering(&self, stop: usize, t: f64, state: &ModalState) -> Option<(f64, f64)> {
+        self.held_push_with(stop, t, state, true)
+    }
+
+    fn held_push_with(&self, stop: usize, t: f64, state: &ModalState, entering: bool) -> Option<(f64, f64)> {
         let model = &self.equations;
         let i = self.phase.contacts.iter().position(|c| c.stop == stop && c.held)?;
         let n = self.phase.n;
         let mut y = DVector::zeros(self.phase.dim());
         y.rows_mut(0, n).copy_from(&state.q);
         y.rows_mut(n, n).copy_from(&state.qd);
-        let push = model.pushes(&self.phase, t, &y)[i];
+        let push = if entering { model.pushes_entering(&self.phase, t, &y)[i] } else { model.pushes(&self.phase, t, &y)[i] };
         let mut f = DVector::zeros(n);
         model.forcing.derivative(t, 0, &mut f);
         let w = &self.phase.contacts[i].geometry.w;

@@ -73,7 +73,16 @@ impl NonlinearPhase {
     /// there and the modes' `omega^2` and `2 a`: the forces that keep
     /// `side_i w_i . q'' = 0` for every held contact (VSM12 eq. 33).
     pub fn reactions(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> Vec<f64> {
-        let accel = self.acceleration_without_holds(y, f, stiffness, damping);
+        let accel = self.acceleration_without_holds(y, f, stiffness, damping, false);
+        self.held_reactions(&accel)
+    }
+
+    /// [`Self::reactions`] with each contact entering its surface (at or
+    /// short of it by rounding, moving in) pushing with the law's limit
+    /// from inside: a linear damping's `C p'` at an onset, which a hold
+    /// beside it answers from that instant.
+    pub fn reactions_entering(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> Vec<f64> {
+        let accel = self.acceleration_without_holds(y, f, stiffness, damping, true);
         self.held_reactions(&accel)
     }
 
@@ -81,7 +90,7 @@ impl NonlinearPhase {
     /// `2 a`): the free acceleration less every engaged stop's push, the
     /// held ones' reactions included.
     pub fn acceleration(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> DVector<f64> {
-        let mut accel = self.acceleration_without_holds(y, f, stiffness, damping);
+        let mut accel = self.acceleration_without_holds(y, f, stiffness, damping, false);
         let pushes = self.held_reactions(&accel);
         for (c, push) in self.contacts.iter().zip(pushes) {
             if c.held {
@@ -91,14 +100,16 @@ impl NonlinearPhase {
         accel
     }
 
-    /// `q''` less the held contacts' reactions.
-    fn acceleration_without_holds(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64]) -> DVector<f64> {
+    /// `q''` less the held contacts' reactions (`entering`: see
+    /// [`Self::reactions_entering`]).
+    fn acceleration_without_holds(&self, y: &[f64], f: &DVector<f64>, stiffness: &[f64], damping: &[f64], entering: bool) -> DVector<f64> {
         let n = self.n;
         let mut accel = DVector::from_fn(n, |j, _| f[j] - stiffness[j] * y[j] - damping[j] * y[n + j]);
         for (i, c) in self.contacts.iter().enumerate() {
             if !c.held {
                 let (p, pd) = self.penetration(i, y);
-                accel.axpy(-c.geometry.side * c.force(p, pd).0, &c.geometry.w, 1.0);
+                let force = if entering && p <= 0.0 && pd > 0.0 { c.law.raw_force(0.0, pd, c.onset_speed).0.max(0.0) } else { c.force(p, pd).0 };
+                accel.axpy(-c.geometry.side * force, &c.geometry.w, 1.0);
             }
         }
         accel
