@@ -6,8 +6,9 @@
 //! One elimination, real or complex, in two orders of rounding
 //! ([`Order`]): each caller keeps, to the bit, the arithmetic its results
 //! were recorded with. Both eliminate in the same sequence (every entry
-//! `a_ij -= l_ik u_kj` for `k` in turn); they differ in the pivot among
-//! equals, in how the multipliers are formed and in the order of the
+//! `a_ij -= l_ik u_kj` for `k` in turn, the multipliers by the pivot's
+//! reciprocal); they differ in the pivot among equals, in whether the
+//! factors keep the pivot or its reciprocal, and in the order of the
 //! substitutions' sums.
 
 use std::iter::Sum;
@@ -56,8 +57,11 @@ pub enum Order {
     /// by the pivot's reciprocal; substitutions column by column.
     Columns,
     /// By rows: the last of the largest candidates (in `total_cmp`'s
-    /// order, so a NaN is chosen and refused); multipliers by division;
-    /// substitutions row by row, each a dot product.
+    /// order, so a NaN is chosen and refused); multipliers by the pivot's
+    /// reciprocal, which the factors keep in place of the pivot;
+    /// substitutions row by row, each a dot product, the back
+    /// substitution's multiplied by that reciprocal (no division in a
+    /// solve: force collocation solves four times per factorisation).
     Rows,
 }
 
@@ -77,6 +81,23 @@ impl<T: Entry> Default for Lu<T> {
     }
 }
 
+/// `$call` with `$n` a literal where it is small (force collocation's
+/// Newton matrices: four nodes per contact), so that the loops unroll;
+/// the same operations in the same order at every size.
+macro_rules! sized {
+    ($n:ident, $f:ident($($arg:expr),*)) => {{
+        let n = $n;
+        match n {
+            1 => $f($($arg,)* 1),
+            2 => $f($($arg,)* 2),
+            3 => $f($($arg,)* 3),
+            4 => $f($($arg,)* 4),
+            8 => $f($($arg,)* 8),
+            _ => $f($($arg,)* n),
+        }
+    }};
+}
+
 impl<T: Entry> Lu<T> {
     /// The matrix to factor next, `n x n`, for the caller to fill (zeros
     /// after a change of size, else the last factors).
@@ -93,65 +114,75 @@ impl<T: Entry> Lu<T> {
     pub fn factor(&mut self, order: Order) -> bool {
         self.order = order;
         let n = self.a.nrows();
-        let a = self.a.as_mut_slice();
-        for k in 0..n {
-            let column = &a[k * n..(k + 1) * n];
-            let p = match order {
-                Order::Columns => (k..n).fold(k, |p, i| if column[i].magnitude() > column[p].magnitude() { i } else { p }),
-                Order::Rows => (k..n).max_by(|&i, &j| column[i].magnitude().total_cmp(&column[j].magnitude())).expect("a row"),
-            };
-            let largest = column[p].magnitude();
-            if !(largest > 0.0 && (order == Order::Rows || largest.is_finite())) {
-                return false;
-            }
-            self.pivots[k] = p;
-            if p != k {
-                (0..n).for_each(|j| a.swap(k + j * n, p + j * n));
-            }
-            let pivot = a[k + k * n];
-            let multipliers = &mut a[k * n + k + 1..(k + 1) * n];
-            match order {
-                Order::Columns => {
-                    let inverse = pivot.recip();
-                    multipliers.iter_mut().for_each(|x| *x = *x * inverse);
-                }
-                Order::Rows => multipliers.iter_mut().for_each(|x| *x = *x / pivot),
-            }
-            for j in k + 1..n {
-                let (left, right) = a.split_at_mut(j * n);
-                let (lk, cj) = (&left[k * n..(k + 1) * n], &mut right[..n]);
-                let ukj = cj[k];
-                (k + 1..n).for_each(|i| cj[i] = cj[i] - lk[i] * ukj);
-            }
-        }
-        true
+        let (a, pivots) = (self.a.as_mut_slice(), self.pivots.as_mut_slice());
+        sized!(n, factor_in(a, pivots, order))
     }
 
     /// `b <- A^-1 b` with the last factors.
     pub fn solve(&self, b: &mut [T]) {
         let (n, a) = (self.a.nrows(), self.a.as_slice());
-        (0..n).for_each(|k| b.swap(k, self.pivots[k]));
-        match self.order {
-            Order::Columns => {
-                for j in 0..n {
-                    let bj = b[j];
-                    (j + 1..n).for_each(|i| b[i] = b[i] - a[i + j * n] * bj);
-                }
-                for j in (0..n).rev() {
-                    b[j] = b[j] / a[j + j * n];
-                    let bj = b[j];
-                    (0..j).for_each(|i| b[i] = b[i] - a[i + j * n] * bj);
-                }
+        let (pivots, order) = (self.pivots.as_slice(), self.order);
+        sized!(n, solve_in(a, pivots, b, order))
+    }
+}
+
+
+#[inline(always)]
+fn factor_in<T: Entry>(a: &mut [T], pivots: &mut [usize], order: Order, n: usize) -> bool {
+    let (a, pivots) = (&mut a[..n * n], &mut pivots[..n]);
+    for k in 0..n {
+        let column = &a[k * n..(k + 1) * n];
+        let p = match order {
+            Order::Columns => (k..n).fold(k, |p, i| if column[i].magnitude() > column[p].magnitude() { i } else { p }),
+            Order::Rows => (k..n).max_by(|&i, &j| column[i].magnitude().total_cmp(&column[j].magnitude())).expect("a row"),
+        };
+        let largest = column[p].magnitude();
+        if !(largest > 0.0 && (order == Order::Rows || largest.is_finite())) {
+            return false;
+        }
+        pivots[k] = p;
+        if p != k {
+            (0..n).for_each(|j| a.swap(k + j * n, p + j * n));
+        }
+        let inverse = a[k + k * n].recip();
+        if order == Order::Rows {
+            a[k + k * n] = inverse;
+        }
+        a[k * n + k + 1..(k + 1) * n].iter_mut().for_each(|x| *x = *x * inverse);
+        for j in k + 1..n {
+            let (left, right) = a.split_at_mut(j * n);
+            let (lk, cj) = (&left[k * n..(k + 1) * n], &mut right[..n]);
+            let ukj = cj[k];
+            (k + 1..n).for_each(|i| cj[i] = cj[i] - lk[i] * ukj);
+        }
+    }
+    true
+}
+
+#[inline(always)]
+fn solve_in<T: Entry>(a: &[T], pivots: &[usize], b: &mut [T], order: Order, n: usize) {
+    let (a, pivots, b) = (&a[..n * n], &pivots[..n], &mut b[..n]);
+    (0..n).for_each(|k| b.swap(k, pivots[k]));
+    match order {
+        Order::Columns => {
+            for j in 0..n {
+                let bj = b[j];
+                (j + 1..n).for_each(|i| b[i] = b[i] - a[i + j * n] * bj);
             }
-            Order::Rows => {
-                for i in 0..n {
-                    let s: T = (0..i).map(|c| a[i + c * n] * b[c]).sum();
-                    b[i] = b[i] - s;
-                }
-                for i in (0..n).rev() {
-                    let s: T = (i + 1..n).map(|c| a[i + c * n] * b[c]).sum();
-                    b[i] = (b[i] - s) / a[i + i * n];
-                }
+            for j in (0..n).rev() {
+                b[j] = b[j] / a[j + j * n];
+                let bj = b[j];
+                (0..j).for_each(|i| b[i] = b[i] - a[i + j * n] * bj);
+            }
+        }
+        Order::Rows => {
+            for i in 0..n {
+                let s: T = (0..i).map(|c| a[i + c * n] * b[c]).sum();
+                b[i] = b[i] - s;
+            }
+            for i in (0..n).rev() {
+                let s: T = (i + 1..n).map(|c| a[i + c * n] * b[c]).sum();
+                b[i] = (b[i] - s) * a[i + i * n];
             }
         }
     }
