@@ -160,6 +160,11 @@ impl ContactLaw for Hertz {
         Hertz::raw_force(self, p, pd, onset_speed)
     }
 
+    fn watched_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        let h = self.damping.hysteresis(self.restitution, onset_speed);
+        super::push_watch(self.damping, self.damping_coefficient, self.stiffness, h, pd, || Hertz::raw_force(self, p, pd, onset_speed))
+    }
+
     /// `K p^1.5`'s onset and end (a linear damping's kink at a push ending
     /// inside the surface is taken at the same fraction).
     fn corner_exponent(&self) -> f64 {

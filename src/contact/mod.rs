@@ -203,6 +203,25 @@ pub struct LawOutput {
     pub surface: Option<&'static str>,
 }
 
+/// The force watch ([`ContactLaw::watched_force`]) of a law `K s(p) (1 +
+/// h p') + C p'` (`s(p)`: `p^n` inside the surface, 0 beyond it): with a
+/// linear dashpot (`C != 0`) the raw force from `raw`, already `C p'`
+/// beyond the surface and `C v0` at an onset; otherwise the force over
+/// `s(p)`, `K (1 + h p')` (`h`: the hysteresis factor, 0 undamped). Its
+/// sign is the force's inside the surface, and unlike the force it does
+/// not vanish where the point meets or leaves the surface: the force's
+/// `p^n` would put a dip for the switch locator to search in every
+/// contact's first and last sample intervals, and beyond the surface it
+/// keeps the sign of a push that ended between two samples, the point's
+/// exit among them.
+pub(crate) fn push_watch(damping: ContactDamping, coefficient: f64, stiffness: f64, h: f64, pd: f64, raw: impl FnOnce() -> (f64, f64, f64)) -> (f64, f64, f64) {
+    if damping.is_linear() && coefficient != 0.0 {
+        raw()
+    } else {
+        (stiffness * (1.0 + h * pd), 0.0, stiffness * h)
+    }
+}
+
 /// What a stop does: the contract every contact law implements, each in
 /// its own file, registered in [`Law`]. The structure never needs to know
 /// which law a stop has: it asks the law what the stop adds to a phase,
@@ -231,9 +250,9 @@ pub trait ContactLaw: Send + Sync + std::fmt::Debug {
         match watch {
             Watch::Gap => (-p, -1.0, 0.0),
             Watch::Penetration => (p, 1.0, 0.0),
-            Watch::Force => self.raw_force(p, pd, onset_speed),
+            Watch::Force => self.watched_force(p, pd, onset_speed),
             Watch::NegatedForce => {
-                let (f, dp, dpd) = self.raw_force(p, pd, onset_speed);
+                let (f, dp, dpd) = self.watched_force(p, pd, onset_speed);
                 (-f, -dp, -dpd)
             }
             Watch::Reaction => unreachable!("a held stop's reaction is the phase's"),
@@ -254,6 +273,14 @@ pub trait ContactLaw: Send + Sync + std::fmt::Debug {
     fn raw_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
         let _ = (p, pd, onset_speed);
         unreachable!("a rigid stop's force is a constraint reaction")
+    }
+    /// The force watch's function (compliant laws), with its derivatives
+    /// by `p` and `pd`: any function whose sign is the unclamped force's
+    /// inside the surface, defined beyond it too (its zero is a push's end
+    /// inside the surface); the raw force unless the law has a better one
+    /// ([`push_watch`]).
+    fn watched_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        self.raw_force(p, pd, onset_speed)
     }
     /// The force the stop pushes with (>= 0) in `contact`, outside a constraint.
     fn force(&self, contact: Contact, p: f64, pd: f64, onset_speed: f64) -> f64 {

@@ -145,6 +145,11 @@ impl ContactLaw for PowerLaw {
         PowerLaw::raw_force(self, p, pd, onset_speed)
     }
 
+    fn watched_force(&self, p: f64, pd: f64, onset_speed: f64) -> (f64, f64, f64) {
+        let h = self.damping.hysteresis(self.restitution, onset_speed);
+        super::push_watch(self.damping, self.damping_coefficient, self.stiffness, h, pd, || PowerLaw::raw_force(self, p, pd, onset_speed))
+    }
+
     /// `K p^n` grows as `t^n` at the onset; a linear damping's push may
     /// end inside the surface in a kink (`t^1`).
     fn corner_exponent(&self) -> f64 {

@@ -215,6 +215,82 @@ fn pushes_resumed_briefly_inside_the_surface_are_found() {
     }
 }
 
+/// A pressed stop's push that ends between two of the switch locator's
+/// samples is found, whether the force dips below zero and comes back or
+/// the point leaves the surface before the next sample: Hunt-Crossley
+/// stops with a restitution near 0 on 8-mode beams, whose fast modes
+/// swing the contact point's rate across the push's end (`p' = -v0 / (1.5
+/// (1 - e))`) within a step. While the stop reads pressed, the law's force
+/// at the output's state is never below zero, and the motion follows RK4
+/// with its own switch location. The force watch had no rate at the
+/// samples (and vanished with `p^1.5` beyond the surface): pressed with
+/// the law's force below zero at 5 outputs at tolerance 1e-10 (down to
+/// -2.6e-6 against peaks of 1.4e-3), at 43 over 5 s at 1e-6 (down to
+/// -4.8e-4 against 1.8e-2).
+#[test]
+fn a_push_ending_between_the_locator_s_samples_is_found() {
+    let cases = [
+        (
+            1e-10,
+            0.4677727839145477,
+            -0.01,
+            r#"{ "type": "hertz", "K": 0.027374392578249335, "damping": "hunt_crossley", "e": 0.020430167368222563 }"#,
+            "[0.0191133912889727, -0.013319798395431022, 0.0040928643883324295, 0.0030138841676672396, -0.007070874308571899, 0.0011567670068479325, -0.0007154895620284811, 0.0019538067401542484]",
+            "[-0.4390621876376686, -0.009120428824550166, 0.11428383910588517, -0.21906542218605193, 0.11971932963607687, -0.017493864753944707, 0.07035466052560611, -0.06522968829209848]",
+        ),
+        (
+            1e-6,
+            0.11257162858020404,
+            0.0,
+            r#"{ "type": "hertz", "K": 0.3878804008502023, "damping": "hunt_crossley", "e": 0.2472750565749553 }"#,
+            "[-0.007022651316753254, 0.012750846584688967, 0.0012807357937113812, -0.000388075317358118, -0.0031655073546481283, -0.001886640921553835, -0.0018172765135056113, -0.006980892899384725]",
+            "[1.0168462003981633, 0.28323878471390546, -0.07142353052636598, 0.26149593460230075, 0.08759755590667839, 0.06192791316160012, -0.35353764993980913, -0.029126989951327356]",
+        ),
+    ];
+    for (tolerance, x, gap, law, q, qd) in cases {
+        let text = format!(
+            r#"{{
+  "name": "PushEndsBetweenSamples",
+  "structure": {{ "type": "beam", "support": "pinned-pinned", "modes": 8 }},
+  "damping": {{ "zeta": 0.0 }},
+  "stops": [ {{ "name": "stop", "x": {x}, "gap": {gap}, "side": "positive", "law": {law} }} ],
+  "initial": {{ "q": {q}, "qd": {qd} }},
+  "solver": {{ "integration_tolerance": {tolerance:e} }}
+}}"#
+        );
+        let model = Model::build(&Scene::from_json(&text).unwrap()).unwrap();
+        let stop = &model.stops[0];
+        let Law::Hertz(hertz) = &stop.law else { panic!("hertz") };
+        let (w, side, n) = (stop.geometry.w.clone(), stop.geometry.side, model.n_modes());
+        let times: Vec<f64> = (1..=60).map(|i| 0.05 * i as f64).collect();
+        let (reference, _) = rk4_reference(&model, &times, 1e-5);
+        let mut sim = Simulation::new(model.clone(), 0.0).unwrap();
+        let (mut peak, mut below, mut ended_inside, mut was) = (0.0f64, 0.0f64, 0, Contact::Open);
+        let mut worst = 0.0f64;
+        let mut at = times.iter().zip(&reference).peekable();
+        for i in 1..=6000 {
+            let t = i as f64 * 5e-4;
+            sim.advance_to(t).unwrap();
+            let st = sim.current();
+            let (p, pd) = (side * w.dot(&st.q) - gap, side * w.dot(&st.qd));
+            let now = sim.contact(0);
+            ended_inside += usize::from(was == Contact::Pressed && now == Contact::Penetrated);
+            was = now;
+            if now == Contact::Pressed && p > 0.0 {
+                let force = hertz.raw_force(p, pd, sim.state().stops[0].onset_speed).0;
+                peak = peak.max(force);
+                below = below.min(force);
+            }
+            if let Some((_, y)) = at.next_if(|(tr, _)| (**tr - t).abs() < 1e-9) {
+                worst = worst.max((&st.q - y.rows(0, n)).amax()).max((&st.qd - y.rows(n, n)).amax());
+            }
+        }
+        assert!(ended_inside >= 3, "{law}: {ended_inside} pushes ended inside the surface");
+        assert!(below >= -1e-9 * peak, "{law} at {tolerance:e}: pressed with the law's force at {below:e} (peak {peak:e})");
+        assert!(worst < 1e-7_f64.max(200.0 * tolerance), "{law} at {tolerance:e}: {worst:e} off RK4");
+    }
+}
+
 /// A push that ends inside the surface ends where the law's force is
 /// zero, `K p^1.5 + C p' = 0`, at a moderate tolerance too: a stiff
 /// linear-damped Hertz stop at zero gap, free vibration of a 4-mode beam.

@@ -33,12 +33,13 @@
 //! needs a rate beyond four times those), or when the cubic through the
 //! ends' values and rates stays above half the lower end (a dip needs the
 //! function to leave that cubic by more, within a quarter of a step).
-//! Functions without a rate (a pressed stop's force) have no such
-//! search: a force that reaches zero and turns positive again within one
-//! sample interval is not seen (the laws clamp their force at zero, so
-//! the motion stays right). A penetrated stop's force, whose turn back
-//! to a push is such a dip, gives its rate (the integrated phases form
-//! it from the equations of motion).
+//! Functions without a rate at a sample have no such search there. A
+//! compliant stop's force watch (a push's end, a push resumed) gives its
+//! rate where it may dip to zero before the next sample: the integrated
+//! phases form it from the dense output's acceleration along the contact,
+//! and leave it out where the force lies far from zero in a step short
+//! against the fastest mode (its dip would need a swing the step's force
+//! polynomial does not pass).
 
 /// Samples of the watched functions per accepted step.
 pub const SAMPLES: usize = 4;

@@ -63,12 +63,15 @@ pub(super) struct Samples {
     projected: bool,
     /// Per sample, every direction's `(c . q, c . q')` once asked for.
     values: Vec<Vec<(f64, f64)>>,
+    /// Per sample and direction, `c . q''` once asked for.
+    accelerations: Vec<Vec<Option<f64>>>,
     /// Per step size (the ladder's recur), what its samples need, the
     /// most recent last.
     sizes: Vec<SampleKernels>,
     /// Room for the kernels at a time off them.
     off: PointKernels,
-    /// The last anchor off them and its coordinates ([`anchor`]).
+    /// The last anchor off them and its coordinates ([`anchor`]), whose
+    /// kernels `off` holds.
     last_off: Option<(f64, Vec<(f64, f64)>)>,
 }
 
@@ -91,25 +94,33 @@ fn anchor(t: f64) -> f64 {
     (t / cell).round() * cell
 }
 
+/// A mode's acceleration in its response `r = (x, x')` to a load that is
+/// `load` at that time: `load - omega^2 x - 2 a x'`.
+fn response_acceleration(osc: &crate::solve::Oscillator, r: [f64; 2], load: f64) -> f64 {
+    load - osc.omega * osc.omega * r[0] - 2.0 * osc.a * r[1]
+}
+
 /// The kernels at one time of a step ([`ForceCollocation::point_kernels`]).
 #[derive(Clone, Debug, Default)]
 struct PointKernels {
     free: Vec<(f64, f64)>,
-    /// `sum_j c_j d_j R_jm`: `[(i * nc + e) * s + m]`.
-    responses: Vec<[f64; 2]>,
+    /// `sum_j c_j d_j R_jm` with its rate and acceleration: `[(i * nc +
+    /// e) * s + m]`.
+    responses: Vec<[f64; 3]>,
     /// Every mode's `R_jm`: `[j * s + m]`.
     modal: Vec<[f64; 2]>,
 }
 
 /// What the samples of one step size need: every mode's `(Ec, Es)` at
 /// sample `k` (`[k * n + j]`) and the contacts' responses to the force
-/// monomials in each watched direction (`[((k * nd + i) * nc + e) * s +
-/// m]`), at `(k + 1) h / (2 GRID)`, `k < INNER`.
+/// monomials in each watched direction with their rates and
+/// accelerations (`[((k * nd + i) * nc + e) * s + m]`), at `(k + 1) h /
+/// (2 GRID)`, `k < INNER`.
 #[derive(Clone, Debug)]
 struct SampleKernels {
     h: f64,
     free: Vec<(f64, f64)>,
-    responses: Vec<[f64; 2]>,
+    responses: Vec<[f64; 3]>,
 }
 
 /// The switch locator's samples strictly inside a step: the grid's inner
@@ -157,6 +168,97 @@ impl ForceCollocation {
             return false;
         }
         let mut samples = self.samples.borrow_mut();
+        self.samples_of(l, &mut samples);
+        if !samples.projected {
+            return false;
+        }
+        let Some(k) = samples.times.iter().position(|&s| s == t) else {
+            if !(t > l.t0 && t < l.t0 + l.h) {
+                return false;
+            }
+            // Off the samples (a zero's refinement): every mode's kernels
+            // at t's anchor, projected as a sample's, moved by their rates
+            // to t.
+            let (at, coordinates) = self.off_samples(l, t, &mut samples);
+            let dt = t - at;
+            out.clear();
+            out.extend(coordinates.iter().map(|&(x, v)| (x + dt * v, v)));
+            return true;
+        };
+        if samples.values[k].is_empty() {
+            let at = self.sample_size(l, &mut samples);
+            let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
+            let Samples { projections, values, sizes, .. } = &mut *samples;
+            let size = &sizes[at];
+            let free = &size.free[k * n..(k + 1) * n];
+            let table = &size.responses[k * nd * nc * s..(k + 1) * nd * nc * s];
+            self.project(l, t, projections, free, table, &mut values[k]);
+        }
+        out.clone_from(&samples.values[k]);
+        true
+    }
+
+    /// Watched direction `i`'s acceleration `c . q''` at `t` strictly
+    /// inside the last step, where [`Self::watched_coordinates`] gives its
+    /// coordinate (`None` elsewhere): the derivative of its rate under the
+    /// step's force polynomials, which a force watch's rate `F_p p' + F_p'
+    /// p''` needs. Formed on demand (an `O(N)` sum, like a sample's
+    /// coordinates): off the samples at `t`'s anchor, whose acceleration
+    /// it takes.
+    pub fn watched_acceleration(&self, t: f64, i: usize) -> Option<f64> {
+        let l = self.last.as_ref()?;
+        if i >= self.watched.len() {
+            return None;
+        }
+        let mut samples = self.samples.borrow_mut();
+        self.samples_of(l, &mut samples);
+        if !samples.projected {
+            return None;
+        }
+        if !samples.projections[i].accelerations_prepared() {
+            samples.projections[i].prepare_accelerations(&self.dynamics);
+        }
+        let (s, nc) = (self.scheme.s, self.contacts.len());
+        let Some(k) = samples.times.iter().position(|&x| x == t) else {
+            if !(t > l.t0 && t < l.t0 + l.h) {
+                return None;
+            }
+            let (at, _) = self.off_samples(l, t, &mut samples);
+            let Samples { projections, off, .. } = &*samples;
+            let responses = &off.responses[i * nc * s..(i + 1) * nc * s];
+            return Some(self.acceleration(l, at, &projections[i], &off.free, responses));
+        };
+        if let Some(a) = samples.accelerations[k][i] {
+            return Some(a);
+        }
+        let at = self.sample_size(l, &mut samples);
+        let (n, nd) = (self.n, self.watched.len());
+        let Samples { projections, sizes, accelerations, .. } = &mut *samples;
+        let size = &sizes[at];
+        let free = &size.free[k * n..(k + 1) * n];
+        let base = (k * nd + i) * nc * s;
+        let a = self.acceleration(l, t, &projections[i], free, &size.responses[base..base + nc * s]);
+        accelerations[k][i] = Some(a);
+        Some(a)
+    }
+
+    /// One direction's `c . q''` at `t` in step `l` from its projection
+    /// and the point's kernels (`responses`: that direction's, as
+    /// [`Self::point_kernels`]').
+    fn acceleration(&self, l: &Step, t: f64, projection: &Projection, free: &[(f64, f64)], responses: &[[f64; 3]]) -> f64 {
+        let s = self.scheme.s;
+        let mut a = projection.acceleration_at(&self.dynamics, t - l.t0, free);
+        for (alpha, r) in l.force.iter().zip(responses.chunks_exact(s)) {
+            for (f, rm) in alpha.iter().zip(r) {
+                a -= f * rm[2];
+            }
+        }
+        a
+    }
+
+    /// The samples of step `l`: their times and the free motion's
+    /// projections, formed once per step.
+    fn samples_of(&self, l: &Step, samples: &mut Samples) {
         if samples.step != Some((l.t0, l.h)) {
             let t1 = l.t0 + l.h;
             let mut previous = l.t0;
@@ -184,53 +286,46 @@ impl ForceCollocation {
             samples.projected = projected;
             samples.values.iter_mut().for_each(Vec::clear);
             samples.values.resize(INNER, Vec::new());
+            let nd = self.watched.len();
+            samples.accelerations.resize(INNER, Vec::new());
+            samples.accelerations.iter_mut().for_each(|a| {
+                a.clear();
+                a.resize(nd, None);
+            });
             samples.step = Some((l.t0, l.h));
             samples.last_off = None;
         }
-        if !samples.projected {
-            return false;
+    }
+
+    /// The anchor of `t` (off the samples, inside step `l`) and every
+    /// direction's coordinates there, `samples.off` holding its kernels.
+    fn off_samples<'a>(&self, l: &Step, t: f64, samples: &'a mut Samples) -> (f64, &'a [(f64, f64)]) {
+        let Samples { projections, off, last_off, .. } = samples;
+        let at = Some(anchor(t)).filter(|a| *a > l.t0 && *a < l.t0 + l.h).unwrap_or(t);
+        if last_off.as_ref().map_or(true, |(t_last, _)| *t_last != at) {
+            let mut coordinates = Vec::with_capacity(projections.len());
+            self.point_kernels(at - l.t0, l.h, off);
+            self.project(l, at, projections, &off.free, &off.responses, &mut coordinates);
+            *last_off = Some((at, coordinates));
         }
-        let Some(k) = samples.times.iter().position(|&s| s == t) else {
-            if !(t > l.t0 && t < l.t0 + l.h) {
-                return false;
-            }
-            // Off the samples (a zero's refinement): every mode's kernels
-            // at t's anchor, projected as a sample's, moved by their rates
-            // to t.
-            let Samples { projections, off, last_off, .. } = &mut *samples;
-            let at = Some(anchor(t)).filter(|a| *a > l.t0 && *a < l.t0 + l.h).unwrap_or(t);
-            if last_off.as_ref().map_or(true, |(t_last, _)| *t_last != at) {
-                let mut coordinates = Vec::with_capacity(projections.len());
-                self.point_kernels(at - l.t0, l.h, off);
-                self.project(l, at, projections, &off.free, &off.responses, &mut coordinates);
-                *last_off = Some((at, coordinates));
-            }
-            let (at, coordinates) = last_off.as_ref().expect("just made");
-            let dt = t - at;
-            out.clear();
-            out.extend(coordinates.iter().map(|&(x, v)| (x + dt * v, v)));
-            return true;
-        };
-        if samples.values[k].is_empty() {
-            let (n, s, nc, nd) = (self.n, self.scheme.s, self.contacts.len(), self.watched.len());
-            let Samples { projections, values, sizes, .. } = &mut *samples;
-            let at = match sizes.iter().rposition(|r| r.h == l.h) {
-                Some(i) => i,
-                None => {
-                    if sizes.len() == SAMPLE_SIZES {
-                        sizes.remove(0);
-                    }
-                    sizes.push(self.sample_kernels(l.h));
-                    sizes.len() - 1
+        let (at, coordinates) = last_off.as_ref().expect("just made");
+        (*at, coordinates)
+    }
+
+    /// The index in `samples.sizes` of the sample kernels of step `l`'s
+    /// size (formed if new).
+    fn sample_size(&self, l: &Step, samples: &mut Samples) -> usize {
+        let sizes = &mut samples.sizes;
+        match sizes.iter().rposition(|r| r.h == l.h) {
+            Some(i) => i,
+            None => {
+                if sizes.len() == SAMPLE_SIZES {
+                    sizes.remove(0);
                 }
-            };
-            let size = &sizes[at];
-            let free = &size.free[k * n..(k + 1) * n];
-            let table = &size.responses[k * nd * nc * s..(k + 1) * nd * nc * s];
-            self.project(l, t, projections, free, table, &mut values[k]);
+                sizes.push(self.sample_kernels(l.h));
+                sizes.len() - 1
+            }
         }
-        out.clone_from(&samples.values[k]);
-        true
     }
 
     /// What the samples of steps of size `h` need (each one's
@@ -248,7 +343,7 @@ impl ForceCollocation {
         let delta = h * ratio;
         let mut free = vec![(0.0, 0.0); INNER * n];
         // Summed over the modes in their order as each is marched.
-        let mut responses = vec![[0.0; 2]; INNER * nd * nc * s];
+        let mut responses = vec![[0.0; 3]; INNER * nd * nc * s];
         // The load sigma^m over the k-th interval in u = (tau - tau_k) /
         // delta: sum_i C(m, i) sigma_k^(m - i) ratio^i u^i (every mode alike).
         let mut shift = [[[0.0; STAGES]; STAGES]; INNER];
@@ -288,11 +383,15 @@ impl ForceCollocation {
                 column = apply(column);
                 free[k * n + j] = (column[1] + osc.a * column[0], column[0]);
                 let point = &mut responses[k * nd * nc * s..(k + 1) * nd * nc * s];
+                let sigma = (k + 1) as f64 * ratio;
                 for (weights, directional) in self.watched_weights.iter().zip(point.chunks_exact_mut(s)) {
                     let w = weights[j];
+                    let mut load = 1.0;
                     for (o, x) in directional.iter_mut().zip(&r[..s]) {
                         o[0] += w * x[0];
                         o[1] += w * x[1];
+                        o[2] += w * response_acceleration(osc, *x, load);
+                        load *= sigma;
                     }
                 }
             }
@@ -311,12 +410,16 @@ impl ForceCollocation {
             *free = point_responses(osc, tau, h, modal);
         }
         out.responses.clear();
-        out.responses.resize(nd * nc * s, [0.0; 2]);
+        out.responses.resize(nd * nc * s, [0.0; 3]);
+        let sigma = tau / h;
         for (weights, directional) in self.watched_weights.iter().zip(out.responses.chunks_exact_mut(s)) {
-            for (&w, r) in weights.iter().zip(out.modal.chunks_exact(s)) {
+            for ((&w, r), osc) in weights.iter().zip(out.modal.chunks_exact(s)).zip(&self.dynamics.oscillators) {
+                let mut load = 1.0;
                 for (o, rm) in directional.iter_mut().zip(r) {
                     o[0] += w * rm[0];
                     o[1] += w * rm[1];
+                    o[2] += w * response_acceleration(osc, *rm, load);
+                    load *= sigma;
                 }
             }
         }
@@ -326,7 +429,7 @@ impl ForceCollocation {
     /// step `l` from its free motion's projections and the point's
     /// kernels (`free`, and `responses` as [`Self::point_kernels`]'), onto
     /// the end of `out`.
-    fn project(&self, l: &Step, t: f64, projections: &[Projection], free: &[(f64, f64)], responses: &[[f64; 2]], out: &mut Vec<(f64, f64)>) {
+    fn project(&self, l: &Step, t: f64, projections: &[Projection], free: &[(f64, f64)], responses: &[[f64; 3]], out: &mut Vec<(f64, f64)>) {
         let (s, nc) = (self.scheme.s, self.contacts.len());
         for (projection, per_contact) in projections.iter().zip(responses.chunks_exact(nc * s)) {
             let (mut x, mut v) = projection.at(&self.dynamics, t - l.t0, free);

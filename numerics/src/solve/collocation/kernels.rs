@@ -6,7 +6,9 @@ use std::sync::Arc;
 
 use nalgebra::DMatrix;
 
+use crate::solve::free::steady_rotation;
 use crate::solve::phi::phi_columns;
+use crate::solve::C64;
 use crate::solve::Oscillator;
 use crate::solve::switch::SAMPLES;
 use super::{ForceCollocation, STAGES};
@@ -34,6 +36,9 @@ pub struct StepKernels {
     pub(super) grid_responses: Vec<[f64; 2]>,
     /// `(Ec, Es)` at `k h / GRID`: `[(k - 1) * n + j]`, `k = 1..=GRID`.
     pub(super) grid_free: Vec<(f64, f64)>,
+    /// Each harmonic load's rotation from the step's start to node `i`
+    /// (`[i * harmonics + k]`, [`steady_rotation`]'s).
+    pub(super) node_rotations: Vec<C64>,
 }
 
 /// `(Ec, Es)` from `phi_0(tau A) b = (Es, Ec - a Es)`.
@@ -118,7 +123,9 @@ impl ForceCollocation {
                 }
             }
         }
-        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free });
+        let harmonics = &self.dynamics.forcing.harmonics;
+        let node_rotations = points[..s].iter().flat_map(|&tau| harmonics.iter().map(move |hm| steady_rotation(hm.omega, tau))).collect();
+        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free, node_rotations });
         if keep {
             let mut cache = self.kernels.borrow_mut();
             cache.retain(|k| k.h != h);

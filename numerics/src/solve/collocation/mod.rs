@@ -479,7 +479,9 @@ mod tests {
 
     /// The watched coordinates at the switch locator's samples and at a
     /// time off them against the dense output's whole state there, step
-    /// by step (two directions: the contact's and another).
+    /// by step (two directions: the contact's and another); at the
+    /// samples and off them their accelerations against the dense rate's
+    /// central difference.
     #[test]
     fn watched_coordinates_are_the_dense_outputs() {
         let oscillators = vec![Oscillator::new(3.0, 0.02), Oscillator::new(40.0, 0.02), Oscillator::new(400.0, 0.05)];
@@ -495,7 +497,7 @@ mod tests {
         let mut col = ForceCollocation::new(dynamics, vec![PointContact { d: d.clone(), gap: 0.0 }], 0.0, y0, options);
         col.watch_directions(vec![d.clone(), other.clone()]);
         let (mut y, mut got) = (DVector::zeros(8), Vec::new());
-        let (mut compared, mut worst, mut worst_off_rate) = (0, 0.0f64, 0.0f64);
+        let (mut compared, mut worst, mut worst_off_rate, mut worst_acceleration) = (0, 0.0f64, 0.0f64, 0.0f64);
         while col.t() < 0.2 {
             let (t0, t1) = col.step(&law).unwrap();
             let g = crate::solve::switch::grid(t0, t1);
@@ -503,10 +505,18 @@ mod tests {
             for &t in g[1..g.len() - 1].iter().chain(&mids) {
                 assert!(col.watched_coordinates(t, &mut got), "sample {t} of [{t0}, {t1}]");
                 col.dense(t, &mut y).unwrap();
-                for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
+                // The acceleration against the dense rate's central difference.
+                let delta = 1e-4 * (t1 - t0);
+                let (mut before, mut after) = (DVector::zeros(8), DVector::zeros(8));
+                col.dense(t - delta, &mut before).unwrap();
+                col.dense(t + delta, &mut after).unwrap();
+                for (i, (c, &(x, v))) in [&d, &other].iter().zip(&got).enumerate() {
                     let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
                     let (scale_x, scale_v) = (c.abs().dot(&y.rows(0, 3).abs()), c.abs().dot(&y.rows(3, 3).abs()));
                     worst = worst.max((x - want_x).abs() / scale_x).max((v - want_v).abs() / scale_v);
+                    let want_a = (c.dot(&after.rows(3, 3)) - c.dot(&before.rows(3, 3))) / (2.0 * delta);
+                    let a = col.watched_acceleration(t, i).expect("inside the step");
+                    worst_acceleration = worst_acceleration.max((a - want_a).abs() / want_a.abs().max(scale_v / (t1 - t0)));
                 }
                 compared += 1;
             }
@@ -517,11 +527,18 @@ mod tests {
             for t in [t, t + 3.0 * f64::EPSILON * t, t - 7.0 * f64::EPSILON * t] {
                 assert!(col.watched_coordinates(t, &mut got));
                 col.dense(t, &mut y).unwrap();
-                for (c, &(x, v)) in [&d, &other].iter().zip(&got) {
+                for (i, (c, &(x, v))) in [&d, &other].iter().zip(&got).enumerate() {
                     let (want_x, want_v) = (c.dot(&y.rows(0, 3)), c.dot(&y.rows(3, 3)));
                     let (scale_x, scale_v) = (c.abs().dot(&y.rows(0, 3).abs()), c.abs().dot(&y.rows(3, 3).abs()));
                     worst = worst.max((x - want_x).abs() / scale_x);
                     worst_off_rate = worst_off_rate.max((v - want_v).abs() / scale_v);
+                    let delta = 1e-4 * (t1 - t0);
+                    let (mut before, mut after) = (DVector::zeros(8), DVector::zeros(8));
+                    col.dense(t - delta, &mut before).unwrap();
+                    col.dense(t + delta, &mut after).unwrap();
+                    let want_a = (c.dot(&after.rows(3, 3)) - c.dot(&before.rows(3, 3))) / (2.0 * delta);
+                    let a = col.watched_acceleration(t, i).expect("inside the step");
+                    worst_acceleration = worst_acceleration.max((a - want_a).abs() / want_a.abs().max(scale_v / (t1 - t0)));
                 }
             }
             assert!(!col.watched_coordinates(t1, &mut got) && !col.watched_coordinates(t0, &mut got), "the step's ends are not inside it");
@@ -529,6 +546,7 @@ mod tests {
         assert!(worst <= 1e-12, "{worst:e} of the terms' size");
         // The anchor's rate, off by the acceleration over 2^-41 of t.
         assert!(worst_off_rate <= 1e-9, "rates off the samples: {worst_off_rate:e} of the terms' size");
+        assert!(worst_acceleration <= 1e-6, "accelerations: {worst_acceleration:e}");
         assert!(compared > 100, "{compared} samples");
     }
 }

@@ -131,7 +131,7 @@ impl ForceCollocation {
     /// are kept).
     pub(super) fn attempt(&self, forces: &impl PointForces, t0: f64, y0: &DVector<f64>, h: f64, cached: bool) -> Result<Attempt, NewtonFailure> {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
-        let ns = nc * s;
+        let (ns, n_harmonics) = (nc * s, self.dynamics.forcing.harmonics.len());
         self.attempts.set(self.attempts.get() + 1);
         let kernels = self.kernels_for(h, cached, false);
         let r = &kernels.responses;
@@ -172,8 +172,9 @@ impl ForceCollocation {
             let tau = if i < s { self.scheme.c[i] * h } else { h };
             let point_kernels = &kernels.free[i * n..(i + 1) * n];
             if i < s && free_projected {
+                let rotations = &kernels.node_rotations[i * n_harmonics..(i + 1) * n_harmonics];
                 for c in 0..nc {
-                    let (p, pd) = projections[c].at(&self.dynamics, tau, point_kernels);
+                    let (p, pd) = projections[c].at_rotated(&self.dynamics, point_kernels, rotations);
                     pf[c * (s + 1) + i] = p - self.contacts[c].gap;
                     pdf[c * (s + 1) + i] = pd;
                 }

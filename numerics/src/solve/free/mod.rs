@@ -23,7 +23,7 @@ mod segment;
 pub use super::modal_state::ModalState;
 pub use bounds::ModalBounds;
 pub use jets::ModalJet;
-pub use segment::{FreeSegment, Increment, Projection};
+pub use segment::{steady_rotation, FreeSegment, Increment, Projection};
 
 /// The free dynamics: one oscillator per mode and the modal load.
 #[derive(Clone, Debug, PartialEq)]

@@ -262,6 +262,13 @@ impl FreeSegment {
     }
 }
 
+/// `e^{i Omega s}` of a harmonic load of angular frequency `omega` from
+/// the half angle's sine and cosine (`1 - 2 sin^2`, `2 sin cos`).
+pub fn steady_rotation(omega: f64, s: f64) -> C64 {
+    let (sh, ch) = sin_cos(0.5 * omega * s);
+    C64::new(1.0 - 2.0 * sh * sh, 2.0 * sh * ch)
+}
+
 /// A segment's motion projected on one coordinate `c . q`: per mode the
 /// weights of its kernels `(Ec, Es)` in the coordinate and its rate, and
 /// per harmonic load the projected steady amplitude, so that the
@@ -272,6 +279,9 @@ pub struct Projection {
     /// `(c alpha, c beta)` and `(c v0, -c (a v0 + omega^2 alpha))` per mode.
     position: Vec<[f64; 2]>,
     rate: Vec<[f64; 2]>,
+    /// The acceleration's weights, likewise (the rate's differentiated
+    /// once more), once [`Self::prepare_accelerations`] formed them.
+    acceleration: Vec<[f64; 2]>,
     /// `c . x_static`.
     constant: f64,
     /// `c . P b` per harmonic (steady parts only, rotated to the start).
@@ -282,19 +292,68 @@ impl Projection {
     /// The coordinate and its rate at `t` (`s = t - t0 > 0`) from every
     /// mode's kernels at `s` (`kernels[j]`).
     pub fn at(&self, dynamics: &FreeDynamics, s: f64, kernels: &[(f64, f64)]) -> (f64, f64) {
+        let (mut x, mut v) = self.modes_at(kernels);
+        for (amplitude, h) in self.steady.iter().zip(&dynamics.forcing.harmonics) {
+            let z = amplitude * steady_rotation(h.omega, s);
+            x += z.re;
+            v -= h.omega * z.im;
+        }
+        (x, v)
+    }
+
+    /// [`Self::at`] with every harmonic load's rotation over `s` given
+    /// ([`steady_rotation`]'s, kept per step size at a step's nodes):
+    /// the same bits.
+    pub fn at_rotated(&self, dynamics: &FreeDynamics, kernels: &[(f64, f64)], rotations: &[C64]) -> (f64, f64) {
+        let (mut x, mut v) = self.modes_at(kernels);
+        for ((amplitude, h), rotation) in self.steady.iter().zip(&dynamics.forcing.harmonics).zip(rotations) {
+            let z = amplitude * rotation;
+            x += z.re;
+            v -= h.omega * z.im;
+        }
+        (x, v)
+    }
+
+    /// The modes' share of the coordinate and its rate (with the static
+    /// part), in the modes' order.
+    fn modes_at(&self, kernels: &[(f64, f64)]) -> (f64, f64) {
         let (mut x, mut v) = (self.constant, 0.0);
         for ((p, r), &(ec, es)) in self.position.iter().zip(&self.rate).zip(kernels) {
             x += p[0] * ec + p[1] * es;
             v += r[0] * ec + r[1] * es;
         }
-        for (amplitude, h) in self.steady.iter().zip(&dynamics.forcing.harmonics) {
-            let (sh, ch) = sin_cos(0.5 * h.omega * s);
-            let rot = C64::new(1.0 - 2.0 * sh * sh, 2.0 * sh * ch);
-            let z = amplitude * rot;
-            x += z.re;
-            v -= h.omega * z.im;
-        }
         (x, v)
+    }
+
+    /// Forms the acceleration's weights of every mode: the map that takes
+    /// `(c alpha, c beta)` to the rate's weights, applied to those.
+    pub fn prepare_accelerations(&mut self, dynamics: &FreeDynamics) {
+        self.acceleration.clear();
+        self.acceleration.extend(self.rate.iter().zip(&dynamics.oscillators).map(|(r, osc)| {
+            let r0 = r[1] - osc.a * r[0];
+            [r0, -(osc.a * r0 + osc.omega * osc.omega * r[0])]
+        }));
+    }
+
+    /// Whether [`Self::prepare_accelerations`] formed this motion's
+    /// acceleration weights.
+    pub fn accelerations_prepared(&self) -> bool {
+        self.acceleration.len() == self.rate.len()
+    }
+
+    /// The coordinate's acceleration at `s` from every mode's kernels
+    /// there (its weights from [`Self::prepare_accelerations`]; the steady
+    /// responses' `-Omega^2` times their value).
+    pub fn acceleration_at(&self, dynamics: &FreeDynamics, s: f64, kernels: &[(f64, f64)]) -> f64 {
+        debug_assert!(self.accelerations_prepared(), "accelerations prepared");
+        let mut a = 0.0;
+        for (acc, &(ec, es)) in self.acceleration.iter().zip(kernels) {
+            a += acc[0] * ec + acc[1] * es;
+        }
+        for (amplitude, h) in self.steady.iter().zip(&dynamics.forcing.harmonics) {
+            a -= h.omega * h.omega * (amplitude * steady_rotation(h.omega, s)).re;
+        }
+        a
     }
 }
 
@@ -306,6 +365,7 @@ impl FreeSegment {
         let n_harmonics = dynamics.forcing.harmonics.len();
         out.position.clear();
         out.rate.clear();
+        out.acceleration.clear();
         out.steady.clear();
         out.steady.resize(n_harmonics, C64::new(0.0, 0.0));
         out.constant = 0.0;

@@ -20,12 +20,13 @@
 
 use nalgebra::DVector;
 
-use super::nonlinear::{NonlinearContact, NonlinearPhase};
+use super::nonlinear::{dot, NonlinearContact, NonlinearPhase};
 use super::{Channel, SimError, Simulation};
 use crate::contact::{Contact, Watch};
 use crate::solve::collocation::{CollocationOptions, ForceCollocation, PointContact};
 use crate::solve::switch::{first_switch, grid, DenseWatch, Located};
-use crate::solve::{Functional, Jet, ModalForcing, ModalState, Oscillator, REANCHOR_AFTER};
+use crate::solve::elementary::unit;
+use crate::solve::{Functional, Jet, ModalForcing, ModalState, Oscillator, C64, REANCHOR_AFTER};
 
 /// The collocation tolerance from which a switch's state is made from
 /// the start of the step before the one it lies in, where that step
@@ -90,6 +91,8 @@ pub(super) struct IntegratedSegment {
     pub anchor: DVector<f64>,
     /// Steps accepted since the anchor (see [`REANCHOR_AFTER`]).
     pub steps: u64,
+    /// The fastest mode's angular frequency.
+    fastest: f64,
     /// Room for one integrated state (the switch locator's samples).
     buffer: std::cell::RefCell<DVector<f64>>,
     /// Per evaluator, the watched direction it reads inside a step
@@ -112,9 +115,45 @@ pub(super) struct PhaseEquations {
     /// `omega_j^2` and `2 a_j`.
     pub stiffness: Vec<f64>,
     pub damping: Vec<f64>,
+    /// Per contact, its direction's share of each term of `q''`
+    /// ([`Self::penetration_acceleration`]).
+    along: Vec<AlongContact>,
+}
+
+/// One contact's direction `d = side w` applied to the equations of
+/// motion: `d . q'' = d . f(t) - (d o omega^2) . q - (d o 2a) . q' - sum_c
+/// (d . d_c) F_c`, each factor formed once per phase.
+#[derive(Clone, Debug)]
+struct AlongContact {
+    constant: f64,
+    harmonics: Vec<C64>,
+    stiffness: Vec<f64>,
+    damping: Vec<f64>,
+    couplings: Vec<f64>,
 }
 
 impl PhaseEquations {
+    pub fn new(forcing: ModalForcing, oscillators: &[Oscillator], phase: &NonlinearPhase) -> PhaseEquations {
+        let stiffness: Vec<f64> = oscillators.iter().map(|o| o.omega * o.omega).collect();
+        let damping: Vec<f64> = oscillators.iter().map(|o| 2.0 * o.a).collect();
+        let direction = |c: &NonlinearContact| &c.geometry.w * c.geometry.side;
+        let along = phase
+            .contacts
+            .iter()
+            .map(|c| {
+                let d = direction(c);
+                AlongContact {
+                    constant: d.dot(&forcing.constant),
+                    harmonics: forcing.harmonics.iter().map(|h| d.iter().zip(h.amplitude.iter()).map(|(dj, b)| b * *dj).fold(C64::new(0.0, 0.0), |a, b| a + b)).collect(),
+                    stiffness: d.iter().zip(&stiffness).map(|(dj, k)| dj * k).collect(),
+                    damping: d.iter().zip(&damping).map(|(dj, c)| dj * c).collect(),
+                    couplings: phase.contacts.iter().map(|other| d.dot(&direction(other))).collect(),
+                }
+            })
+            .collect();
+        PhaseEquations { forcing, stiffness, damping, along }
+    }
+
     /// Every contact's push at `t` in `y` (zero but for the held ones).
     pub fn pushes(&self, phase: &NonlinearPhase, t: f64, y: &DVector<f64>) -> Vec<f64> {
         let mut f = DVector::zeros(phase.n);
@@ -137,10 +176,29 @@ impl PhaseEquations {
         phase.acceleration(y.as_slice(), &f, &self.stiffness, &self.damping)
     }
 
-    /// `p''` of contact `i` at `t` in `y`.
-    pub fn penetration_acceleration(&self, phase: &NonlinearPhase, i: usize, t: f64, y: &DVector<f64>) -> f64 {
-        let g = &phase.contacts[i].geometry;
-        g.side * g.w.dot(&self.acceleration(phase, t, y))
+    /// `p''` of contact `i` at `t` in `y` (`own`: its penetration and
+    /// rate there): through its direction's factors ([`AlongContact`])
+    /// where no contact is held, `O(N)` with no modal acceleration formed
+    /// (a force's rate at every step's ends); else from
+    /// [`Self::acceleration`], which solves for the holds.
+    pub fn penetration_acceleration(&self, phase: &NonlinearPhase, i: usize, own: (f64, f64), t: f64, y: &DVector<f64>) -> f64 {
+        if phase.contacts.iter().any(|c| c.held) {
+            let g = &phase.contacts[i].geometry;
+            return g.side * g.w.dot(&self.acceleration(phase, t, y));
+        }
+        let along = &self.along[i];
+        let n = phase.n;
+        let (q, qd) = y.as_slice()[..2 * n].split_at(n);
+        let mut acceleration = along.constant;
+        for (h, b) in self.forcing.harmonics.iter().zip(&along.harmonics) {
+            acceleration += (b * unit(h.omega * t)).re;
+        }
+        acceleration -= dot(&along.stiffness, q) + dot(&along.damping, qd);
+        for (c, coupling) in along.couplings.iter().enumerate() {
+            let (p, pd) = if c == i { own } else { phase.penetration(c, y.as_slice()) };
+            acceleration -= coupling * phase.contacts[c].force(p, pd).0;
+        }
+        acceleration
     }
 }
 
@@ -339,7 +397,7 @@ impl IntegratedSegment {
         if let Some(&(c, slope)) = located.at_zero.first().filter(|_| !passed) {
             for _ in 0..4 {
                 let g = self.evaluate(&self.evaluators[c], te, &at);
-                let rate = self.refinement_rate(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                let rate = self.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 let next = te - g / rate;
                 if !(next > located.from.max(t0) && next < t1) || (next - te).abs() <= 4.0 * f64::EPSILON * te.abs() {
                     break;
@@ -362,7 +420,7 @@ impl IntegratedSegment {
                 if g <= 0.0 {
                     break;
                 }
-                let rate = self.refinement_rate(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
+                let rate = self.rate_in(c, te, &at).filter(|r| *r < 0.0).unwrap_or(slope);
                 // Within the step: its samples and steps cover no further
                 // (a slope near zero would send it far past them).
                 let next = (te - g / rate).max(te + 4.0 * f64::EPSILON * te.abs()).min(t1);
@@ -460,8 +518,8 @@ impl IntegratedSegment {
     }
 
     /// The rate of watched function `i` at `t` in the integrated state
-    /// `y`: for the geometric ones, and for a force that ended its push
-    /// inside the stop ([`Self::force_rate`]).
+    /// `y`: for the geometric ones and the forces ([`Self::force_rate`];
+    /// not a held stop's reaction).
     fn rate_in(&self, i: usize, t: f64, y: &DVector<f64>) -> Option<f64> {
         let n = self.phase.n;
         let rates = &y.as_slice()[n..2 * n];
@@ -473,8 +531,8 @@ impl IntegratedSegment {
                 match watch {
                     Watch::Penetration => Some(dot(g.w.as_slice(), g.side)),
                     Watch::Gap => Some(dot(g.w.as_slice(), -g.side)),
-                    Watch::NegatedForce => Some(self.force_rate(*contact, Watch::NegatedForce, t, y)),
-                    _ => None,
+                    Watch::NegatedForce | Watch::Force => Some(self.force_rate(*contact, *watch, t, y)),
+                    Watch::Reaction => None,
                 }
             }
         }
@@ -482,37 +540,29 @@ impl IntegratedSegment {
 
     /// The rate of a force watch (`watch`: the law force `F(p, p')` or
     /// its negation) of `contact` along the motion, `F_p p' + F_p' p''`
-    /// with `p''` from the equations of motion at `t` in `y`. A penetrated
-    /// stop's negated force gives it to the switch locator, whose search
-    /// between samples then sees a push that resumes and ends again inside
-    /// one sample interval (with no rate a push as short as 7 ms went
-    /// unseen in 40 ms samples: its force acted, clamped by the law, but
-    /// the phase was never pressed, and the collocation stepped over the
-    /// force's corners).
+    /// with `p''` from the equations of motion at `t` in `y` (a zero's
+    /// refinement; the switch locator's samples take `p''` from the
+    /// watched coordinates, [`Self::watched_read`]). With it the search
+    /// between samples sees a push that resumes and ends again inside one
+    /// sample interval (with no rate a push as short as 7 ms went unseen
+    /// in 40 ms samples: its force acted, clamped by the law, but the
+    /// phase was never pressed, and the collocation stepped over the
+    /// force's corners), and a push's end that the force dips to and
+    /// leaves within one.
     fn force_rate(&self, contact: usize, watch: Watch, t: f64, y: &DVector<f64>) -> f64 {
         let (p, pd) = self.phase.penetration(contact, y.as_slice());
         let c = &self.phase.contacts[contact];
         let (_, dp, dpd) = c.law.watched(watch, p, pd, c.onset_speed);
-        dp * pd + dpd * self.equations.penetration_acceleration(&self.phase, contact, t, y)
+        self.force_rate_at(contact, (p, pd), (dp, dpd), t, y)
     }
 
-    /// The rate a zero's refinement steps by: [`Self::rate_in`], and a
-    /// pressed stop's force rate too (which the locator's samples go
-    /// without: its rate at every sample costs a whole state there, and
-    /// took HertzStop from 4.3 to 9.3 ms at tolerance 1e-10; a push that
-    /// ends and leaves the surface within one sample interval goes
-    /// unlocated, docs/scenes.md).
-    fn refinement_rate(&self, i: usize, t: f64, y: &DVector<f64>) -> Option<f64> {
-        match self.evaluators[i] {
-            Evaluator::Nonlinear { contact, watch: Watch::Force } => Some(self.force_rate(contact, Watch::Force, t, y)),
-            _ => self.rate_in(i, t, y),
+    /// [`Self::force_rate`] given the contact's penetration and rate and
+    /// the watch's derivatives by them.
+    fn force_rate_at(&self, contact: usize, (p, pd): (f64, f64), (dp, dpd): (f64, f64), t: f64, y: &DVector<f64>) -> f64 {
+        if dpd == 0.0 {
+            return dp * pd;
         }
-    }
-
-    /// Whether evaluator `i`'s rate needs the whole state (not only its
-    /// direction's coordinates).
-    fn rate_needs_state(&self, i: usize) -> bool {
-        matches!(self.evaluators[i], Evaluator::Nonlinear { watch: Watch::NegatedForce, .. })
+        dp * pd + dpd * self.equations.penetration_acceleration(&self.phase, contact, (p, pd), t, y)
     }
 
     /// Whether evaluator `i` watches a pressed stop's force (its zero: a
@@ -560,29 +610,25 @@ impl DenseWatch for IntegratedSegment {
     }
 
     fn rate(&self, i: usize, t: f64) -> Option<f64> {
-        if !self.rate_needs_state(i) {
-            if let Some(coordinates) = self.watched_at(t) {
-                return self.watched_rate(i, &coordinates);
-            }
+        if let Some(coordinates) = self.watched_at(t) {
+            return self.watched_read(i, t, &coordinates).1;
         }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
-        self.rate_in(i, t, &y)
+        self.dense_read(i, t, &y).1
     }
 
     fn values_and_rates(&self, t: f64, values: &mut [f64], rates: &mut [Option<f64>]) {
         if let Some(coordinates) = self.watched_at(t) {
             for (i, (value, rate)) in values.iter_mut().zip(rates.iter_mut()).enumerate() {
-                *value = self.watched_value(i, &coordinates);
-                *rate = if self.rate_needs_state(i) { self.rate(i, t) } else { self.watched_rate(i, &coordinates) };
+                (*value, *rate) = self.watched_read(i, t, &coordinates);
             }
             return;
         }
         let mut y = self.buffer.borrow_mut();
         self.dense_y_at(t, &mut y);
         for (i, (value, rate)) in values.iter_mut().zip(rates.iter_mut()).enumerate() {
-            *value = self.evaluate(&self.evaluators[i], t, &y);
-            *rate = self.rate_in(i, t, &y);
+            (*value, *rate) = self.dense_read(i, t, &y);
         }
     }
 }
@@ -612,15 +658,63 @@ impl IntegratedSegment {
         }
     }
 
-    /// Evaluator `i`'s rate from its direction's coordinate rate (as
-    /// [`Self::rate_in`]).
-    fn watched_rate(&self, i: usize, coordinates: &[(f64, f64)]) -> Option<f64> {
-        let (_, rate) = coordinates[self.direction_of[i]];
+    /// Whether a force watch whose value is `value`, with `at_p` and
+    /// `at_pd` its derivatives by `p` and `p'` times `p` and `p'` (the size
+    /// of its terms), may dip to zero before the switch locator's next
+    /// sample, so that the locator needs its rate (an `O(N)` acceleration)
+    /// there: where the last step is longer than a quarter period of the
+    /// fastest mode, whose motion can swing the force anywhere between
+    /// samples, or where the force lies within half its terms' size of
+    /// zero. Farther, and in steps that short, a dip within one sample
+    /// interval (an eighth of a step, an arc of at most 11 degrees of the
+    /// fastest mode) needs the force to swing by half its size and back.
+    /// A pressed Hertz stop with Lankarani-Nikravesh damping at `e = 0.8`
+    /// is never that close: its push would end at `p' = -3.7 v0`.
+    fn force_may_dip(&self, value: f64, at_p: f64, at_pd: f64) -> bool {
+        let long_step = self.step.as_ref().map_or(true, |(t0, t1, _)| (t1 - t0) * self.fastest > std::f64::consts::FRAC_PI_2);
+        long_step || value <= 0.5 * (value.abs() + at_p.abs() + at_pd.abs())
+    }
+
+    /// Evaluator `i`'s value and rate at `t` from its direction's
+    /// coordinate and rate (the formulas of [`Self::dense_read`]; a
+    /// force's `p''` the dense output's,
+    /// [`ForceCollocation::watched_acceleration`], in place of the
+    /// equations of motion's: they differ by the collocation's defect).
+    fn watched_read(&self, i: usize, t: f64, coordinates: &[(f64, f64)]) -> (f64, Option<f64>) {
+        let (x, v) = coordinates[self.direction_of[i]];
         match &self.evaluators[i] {
-            Evaluator::Affine(..) | Evaluator::Nonlinear { watch: Watch::Penetration, .. } => Some(rate),
-            Evaluator::Nonlinear { watch: Watch::Gap, .. } => Some(-rate),
-            Evaluator::Nonlinear { .. } => None,
+            Evaluator::Affine(h, floor) => (h.offset + x + floor, Some(v)),
+            Evaluator::Nonlinear { contact, watch } => {
+                let c = &self.phase.contacts[*contact];
+                let p = x - c.geometry.gap;
+                let (value, dp, dpd) = c.law.watched(*watch, p, v, c.onset_speed);
+                let rate = match watch {
+                    Watch::Penetration => Some(v),
+                    Watch::Gap => Some(-v),
+                    Watch::Force | Watch::NegatedForce if self.force_may_dip(value, dp * p, dpd * v) => {
+                        let acceleration = if dpd == 0.0 { Some(0.0) } else { self.solver.watched_acceleration(t, self.direction_of[i]) };
+                        acceleration.map(|a| dp * v + dpd * a)
+                    }
+                    _ => None,
+                };
+                (value, rate)
+            }
         }
+    }
+
+    /// Evaluator `i`'s value and the rate the switch locator reads at `t`
+    /// in `y` (a step's ends): [`Self::evaluate`] and [`Self::rate_in`],
+    /// but a force's rate only where it may dip to zero
+    /// ([`Self::force_may_dip`]).
+    fn dense_read(&self, i: usize, t: f64, y: &DVector<f64>) -> (f64, Option<f64>) {
+        if let Evaluator::Nonlinear { contact, watch: watch @ (Watch::Force | Watch::NegatedForce) } = self.evaluators[i] {
+            let (p, pd) = self.phase.penetration(contact, y.as_slice());
+            let c = &self.phase.contacts[contact];
+            let (value, dp, dpd) = c.law.watched(watch, p, pd, c.onset_speed);
+            let rate = self.force_may_dip(value, dp * p, dpd * pd).then(|| self.force_rate_at(contact, (p, pd), (dp, dpd), t, y));
+            return (value, rate);
+        }
+        (self.evaluate(&self.evaluators[i], t, y), self.rate_in(i, t, y))
     }
 
     /// Computes and keeps the state at `t` inside the last step to the
@@ -751,11 +845,7 @@ impl Simulation {
         }
         let options = CollocationOptions { tol, q_scale, v_scale, h_init: h_init.min(h_max), h_max, corner_fraction };
         let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
-        let equations = PhaseEquations {
-            forcing: self.dynamics.forcing.clone(),
-            stiffness: self.dynamics.oscillators.iter().map(|o| o.omega * o.omega).collect(),
-            damping: self.dynamics.oscillators.iter().map(|o| 2.0 * o.a).collect(),
-        };
+        let equations = PhaseEquations::new(self.dynamics.forcing.clone(), &self.dynamics.oscillators, &phase);
         // The directions the switch locator reads: each engaged contact's
         // (its penetration, rate and force) and each open stop's gap.
         let mut directions: Vec<DVector<f64>> = Vec::new();
@@ -786,7 +876,9 @@ impl Simulation {
         if let Some(super::Segment::Integrated(previous)) = &mut self.spare {
             solver.adopt_kernels(&mut previous.solver);
         }
+        let fastest = self.model.oscillators.iter().map(|o| o.omega).fold(0.0, f64::max);
         Ok(IntegratedSegment {
+            fastest,
             buffer: DVector::zeros(dim).into(),
             direction_of,
             coordinates: Default::default(),
