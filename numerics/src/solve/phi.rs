@@ -57,25 +57,64 @@ pub fn phi_columns_with(osc: &Oscillator, tau: f64, kernels: impl FnOnce() -> (f
     // relative to the sum, Horner from the last one kept (`tau < 0` too:
     // a step back).
     let r = (osc.omega * tau + 2.0 * a * tau).abs();
-    let mut terms = 0usize;
-    let mut size = 1.0;
-    while size > 1e-18 && terms < 60 {
-        terms += 1;
-        // By the reciprocal: a division per term took half the time.
-        size *= r * INV[terms + kmax];
-    }
+    let terms = series_terms(r, kmax);
     let x_times = |v: [f64; 2]| [tau * v[1], -tau * (w2 * v[0] + 2.0 * a * v[1])];
     let mut u = [0.0, inv_fact(terms + kmax)];
-    for i in (0..terms).rev() {
+    for &f in INV_FACT[kmax..kmax + terms].iter().rev() {
         let xu = x_times(u);
-        u = [xu[0], xu[1] + inv_fact(i + kmax)];
+        u = [xu[0], xu[1] + f];
     }
     out[kmax] = u;
     // Down to phi_0 b = e^X b too: no sine, cosine or exponential here.
     for k in (0..kmax).rev() {
         let xu = x_times(out[k + 1]);
-        out[k] = [xu[0], xu[1] + inv_fact(k)];
+        out[k] = [xu[0], xu[1] + INV_FACT[k]];
     }
+}
+
+/// Terms of the series of `phi_kmax` kept at `|X| ~ r`: the fewest after
+/// which the next one, `r^terms kmax! / (terms + kmax)!` relative to the
+/// first, is at most 1e-18 (at most 60). Read from a table of the largest
+/// `r` each count covers where `kmax` is in it (the phis of force
+/// collocation, `kmax <= 11`): the product it replaces, a serial chain of
+/// a multiplication per term, was a third of the series' time.
+fn series_terms(r: f64, kmax: usize) -> usize {
+    if let Some(limits) = series_limits().get(kmax) {
+        return limits.iter().position(|&limit| r <= limit).map_or(MAX_TERMS, |i| i + 1);
+    }
+    let mut terms = 0usize;
+    let mut size = 1.0;
+    while size > 1e-18 && terms < MAX_TERMS {
+        terms += 1;
+        // By the reciprocal: a division per term took half the time.
+        size *= r * INV[terms + kmax];
+    }
+    terms
+}
+
+/// The most terms a series keeps.
+const MAX_TERMS: usize = 60;
+/// The `kmax` the table of [`series_terms`] covers.
+const TABLED: usize = 12;
+
+/// `[kmax][terms - 1]`: the largest `r` whose series needs at most
+/// `terms` terms, `(1e-18 (terms + kmax)! / kmax!)^(1 / terms)` (rising
+/// with `terms`).
+fn series_limits() -> &'static [[f64; MAX_TERMS]; TABLED] {
+    static LIMITS: std::sync::OnceLock<[[f64; MAX_TERMS]; TABLED]> = std::sync::OnceLock::new();
+    LIMITS.get_or_init(|| {
+        let mut limits = [[0.0; MAX_TERMS]; TABLED];
+        for (kmax, row) in limits.iter_mut().enumerate() {
+            // ln((terms + kmax)! / kmax!), term by term.
+            let mut log_ratio = 0.0;
+            for (i, limit) in row.iter_mut().enumerate() {
+                let terms = i + 1;
+                log_ratio += ((terms + kmax) as f64).ln();
+                *limit = ((1e-18f64.ln() + log_ratio) / terms as f64).exp();
+            }
+        }
+        limits
+    })
 }
 
 /// `1 / k!` for `k < 80`.
