@@ -261,6 +261,25 @@ mod tests {
         }
     }
 
+    /// The table's term counts are the product's: the first count whose
+    /// next term, `r^terms kmax! / (terms + kmax)!`, is at most 1e-18
+    /// (away from the boundaries, where the two roundings may differ).
+    #[test]
+    fn tabled_term_counts_are_the_products() {
+        for kmax in 0..TABLED {
+            for i in 0..400 {
+                let r = 10f64.powf(-12.0 + 14.0 * i as f64 / 400.0);
+                let (mut terms, mut size) = (0usize, 1.0f64);
+                while size > 1e-18 && terms < MAX_TERMS {
+                    terms += 1;
+                    size *= r / (terms + kmax) as f64;
+                }
+                let near_boundary = (size / 1e-18 - 1.0).abs() < 1e-9 || (size * (terms + kmax) as f64 / r / 1e-18 - 1.0).abs() < 1e-9;
+                assert!(near_boundary || series_terms(r, kmax) == terms, "kmax {kmax}, r {r:e}: {} terms, the product {terms}", series_terms(r, kmax));
+            }
+        }
+    }
+
     #[test]
     fn every_regime_matches_the_series_in_double_double() {
         // Under-damped, near-critical and over-damped, omega tau across
