@@ -76,8 +76,8 @@ pub fn phi_columns_with(osc: &Oscillator, tau: f64, kernels: impl FnOnce() -> (f
 /// which the next one, `r^terms kmax! / (terms + kmax)!` relative to the
 /// first, is at most 1e-18 (at most 60). Read from a table of the largest
 /// `r` each count covers where `kmax` is in it (the phis of force
-/// collocation, `kmax <= 11`): the product it replaces, a serial chain of
-/// a multiplication per term, was a third of the series' time.
+/// collocation, `kmax <= 11`) rather than formed term by term, a serial
+/// chain of multiplications as long as the series.
 fn series_terms(r: f64, kmax: usize) -> usize {
     if let Some(limits) = series_limits().get(kmax) {
         return limits.iter().position(|&limit| r <= limit).map_or(MAX_TERMS, |i| i + 1);
