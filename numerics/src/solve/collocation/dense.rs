@@ -136,6 +136,17 @@ impl Samples {
     pub(super) fn adopt_sizes(&mut self, other: &mut Samples) {
         self.sizes = std::mem::take(&mut other.sizes);
     }
+
+    /// Another stepper's storage, its contents dropped (no step's samples,
+    /// no kernels off them; the sizes' only where [`Self::adopt_sizes`]
+    /// takes them): its vectors then need no allocation again.
+    pub(super) fn adopt_storage(&mut self, other: &mut Samples) {
+        let sizes = std::mem::take(&mut self.sizes);
+        *self = std::mem::take(other);
+        self.sizes = sizes;
+        self.step = None;
+        self.last_off = None;
+    }
 }
 
 impl ForceCollocation {

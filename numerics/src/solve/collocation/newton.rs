@@ -95,6 +95,17 @@ impl ForceCollocation {
     }
 
     /// Keeps `step`'s storage for the next attempt.
+    /// Another stepper's working arrays, for this one's attempts: a spare
+    /// step is taken as storage only (never as a retry of the same
+    /// start: its projections are on the other's contacts).
+    pub(super) fn adopt_scratch(&mut self, other: &mut ForceCollocation) {
+        let mut scratch = std::mem::take(other.scratch.get_mut());
+        if let Some(spare) = &mut scratch.spare {
+            spare.t0 = f64::NAN;
+        }
+        *self.scratch.get_mut() = scratch;
+    }
+
     pub(super) fn recycle(&self, step: Step) {
         self.scratch.borrow_mut().spare = Some(step);
     }

@@ -273,8 +273,9 @@ pub fn steady_rotation(omega: f64, s: f64) -> C64 {
 /// weights of its kernels `(Ec, Es)` in the coordinate and its rate, and
 /// per harmonic load the projected steady amplitude, so that the
 /// coordinate at a time costs two products per mode instead of the modal
-/// state ([`FreeSegment::projected`]).
-#[derive(Clone, Debug, Default)]
+/// state ([`FreeSegment::projected`]). Cloned into another field by
+/// field, in its storage (a step's samples copy one per step).
+#[derive(Debug, Default)]
 pub struct Projection {
     /// `(c alpha, c beta)` and `(c v0, -c (a v0 + omega^2 alpha))` per mode.
     position: Vec<[f64; 2]>,
@@ -286,6 +287,20 @@ pub struct Projection {
     constant: f64,
     /// `c . P b` per harmonic (steady parts only, rotated to the start).
     steady: Vec<C64>,
+}
+
+impl Clone for Projection {
+    fn clone(&self) -> Self {
+        Projection { position: self.position.clone(), rate: self.rate.clone(), acceleration: self.acceleration.clone(), constant: self.constant, steady: self.steady.clone() }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        self.position.clone_from(&source.position);
+        self.rate.clone_from(&source.rate);
+        self.acceleration.clone_from(&source.acceleration);
+        self.constant = source.constant;
+        self.steady.clone_from(&source.steady);
+    }
 }
 
 impl Projection {
