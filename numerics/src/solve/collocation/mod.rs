@@ -155,7 +155,8 @@ impl std::fmt::Display for CollocationError {
 #[derive(Clone, Debug)]
 pub struct ForceCollocation {
     n: usize,
-    dynamics: FreeDynamics,
+    /// Shared with the phases before and after it where they are the same.
+    dynamics: Arc<FreeDynamics>,
     contacts: Vec<PointContact>,
     /// `d_c[j] d_e[j]` at `(c * nc + e) * n + j`.
     dd: Vec<f64>,
@@ -201,7 +202,8 @@ impl ForceCollocation {
         &self.options
     }
 
-    pub fn new(dynamics: FreeDynamics, contacts: Vec<PointContact>, t0: f64, y0: DVector<f64>, options: CollocationOptions) -> Self {
+    pub fn new(dynamics: impl Into<Arc<FreeDynamics>>, contacts: Vec<PointContact>, t0: f64, y0: DVector<f64>, options: CollocationOptions) -> Self {
+        let dynamics = dynamics.into();
         let n = dynamics.oscillators.len();
         let nc = contacts.len();
         assert_eq!(y0.len(), 2 * n + 2 * nc, "the integrated state is [q; q'; J; E]");
@@ -216,6 +218,12 @@ impl ForceCollocation {
         let h = options.h_init.min(options.h_max);
         let amax = contacts.iter().map(|c| c.d.amax()).collect();
         ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), watched_contact: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
+    }
+
+    /// The free dynamics it steps, for a later phase over the same ones
+    /// to share (a copy is some 25 vectors at 20 modes).
+    pub fn shared_dynamics(&self) -> &Arc<FreeDynamics> {
+        &self.dynamics
     }
 
     /// Steps attempted so far, of every kind.

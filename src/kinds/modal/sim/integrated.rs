@@ -846,7 +846,13 @@ impl Simulation {
             h_max = h_max.min(0.25 * std::f64::consts::TAU / fastest.max(slowest));
         }
         let options = CollocationOptions { tol, q_scale, v_scale, h_init: h_init.min(h_max), h_max, corner_fraction };
-        let mut solver = ForceCollocation::new(self.dynamics.clone(), points, self.state.anchor_time, anchor.clone(), options);
+        // The previous phase's dynamics where they are these (unchanged
+        // inputs): shared, not copied.
+        let dynamics = match &self.spare {
+            Some(super::Segment::Integrated(previous)) if **previous.solver.shared_dynamics() == self.dynamics => previous.solver.shared_dynamics().clone(),
+            _ => std::sync::Arc::new(self.dynamics.clone()),
+        };
+        let mut solver = ForceCollocation::new(dynamics, points, self.state.anchor_time, anchor.clone(), options);
         let equations = PhaseEquations::new(self.dynamics.forcing.clone(), &self.dynamics.oscillators, &phase);
         // The directions the switch locator reads: each engaged contact's
         // (its penetration, rate and force) and each open stop's gap.
