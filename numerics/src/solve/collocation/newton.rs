@@ -94,7 +94,6 @@ impl ForceCollocation {
         }
     }
 
-    /// Keeps `step`'s storage for the next attempt.
     /// Another stepper's working arrays, for this one's attempts: a spare
     /// step is taken as storage only (never as a retry of the same
     /// start: its projections are on the other's contacts).
@@ -106,6 +105,7 @@ impl ForceCollocation {
         *self.scratch.get_mut() = scratch;
     }
 
+    /// Keeps `step`'s storage for the next attempt.
     pub(super) fn recycle(&self, step: Step) {
         self.scratch.borrow_mut().spare = Some(step);
     }
