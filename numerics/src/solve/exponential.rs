@@ -353,6 +353,9 @@ struct StepScratch {
     previous_end: Vec<f64>,
     top: Vec<f64>,
     end_remainder: Vec<f64>,
+    /// The start state and polynomial of the step before the last, as
+    /// room for the next step's.
+    spare: Option<(Vec<f64>, Polynomial)>,
 }
 
 /// One step's polynomial: monomial coefficients (in `tau / h`) of every
@@ -404,8 +407,21 @@ pub struct Exponential<R: Rhs> {
 struct DensePoint {
     t: f64,
     q: Vec<f64>,
-    y: Option<Vec<f64>>,
-    dy: Option<Vec<f64>>,
+    /// `y` and `dy` hold the physical state and its derivative once made
+    /// (their storage kept from point to point).
+    y: Vec<f64>,
+    has_y: bool,
+    dy: Vec<f64>,
+    has_dy: bool,
+    /// Room for the modal rate `dy` is made from.
+    dq: Vec<f64>,
+}
+
+impl DensePoint {
+    /// Valid at no time; its storage kept for the next query.
+    fn invalidate(&mut self) {
+        self.t = f64::NAN;
+    }
 }
 
 /// [`Nodes`] shared between clones.
@@ -591,10 +607,14 @@ impl<R: ModalRhs> Exponential<R> {
         let m = self.modes.len();
         let ncomp = n - m;
         let t0 = self.t;
-        let q0 = self.q.clone();
+        let (mut q0, mut poly) = scratch.spare.take().unwrap_or_else(|| (Vec::new(), Polynomial { coefficients: Vec::new() }));
+        q0.clear();
+        q0.extend_from_slice(&self.q);
+        poly.coefficients.clear();
+        poly.coefficients.resize(ncomp, [0.0; NODES]);
         let mut h = self.h_next.min(self.max_step);
         let nodes_c = self.nodes.0.c;
-        let StepScratch { values, states, previous_end, top, end_remainder } = scratch;
+        let StepScratch { values, states, previous_end, top, end_remainder, spare } = scratch;
         values.resize_with(NODES, Vec::new);
         states.resize_with(NODES, Vec::new);
         for (v, s) in values.iter_mut().zip(states.iter_mut()) {
@@ -603,7 +623,6 @@ impl<R: ModalRhs> Exponential<R> {
             s.clear();
             s.resize(n, 0.0);
         }
-        let mut poly = Polynomial { coefficients: vec![[0.0; NODES]; ncomp] };
         // A rejected attempt's size and polynomial.
         let mut attempt: Option<(f64, Polynomial)> = None;
         loop {
@@ -717,8 +736,10 @@ impl<R: ModalRhs> Exponential<R> {
                 self.t = t1;
                 self.modes.to_physical(&self.q, &mut self.y);
                 self.h_next = h * factor;
-                self.last = Some((t0, h, q0, poly));
-                *self.dense_cache.borrow_mut() = None;
+                *spare = self.last.replace((t0, h, q0, poly)).map(|(_, _, q, p)| (q, p));
+                if let Some(point) = self.dense_cache.borrow_mut().as_mut() {
+                    point.invalidate();
+                }
                 self.accepted += 1;
                 self.steps_since_measured += 1;
                 return Ok((t0, t1));
@@ -736,12 +757,12 @@ impl<R: ModalRhs> Exponential<R> {
     pub fn dense(&self, t: f64, out: &mut [f64]) -> bool {
         let Some(mut cache) = self.dense_point(t) else { return false };
         let point = cache.as_mut().expect("a dense point");
-        if point.y.is_none() {
-            let mut y = vec![0.0; point.q.len()];
-            self.modes.to_physical(&point.q, &mut y);
-            point.y = Some(y);
+        if !point.has_y {
+            point.y.resize(point.q.len(), 0.0);
+            self.modes.to_physical(&point.q, &mut point.y);
+            point.has_y = true;
         }
-        out.copy_from_slice(point.y.as_ref().expect("just made"));
+        out.copy_from_slice(&point.y);
         true
     }
 
@@ -757,16 +778,16 @@ impl<R: ModalRhs> Exponential<R> {
         let Some((t0, h, _, poly)) = &self.last else { return false };
         let Some(mut cache) = self.dense_point(t) else { return false };
         let point = cache.as_mut().expect("a dense point");
-        if point.dy.is_none() {
+        if !point.has_dy {
             let modes = &self.modes;
             let n = point.q.len();
-            let mut dq = vec![0.0; n];
-            Self::modal_rate(modes, &point.q, poly, (t - t0) / h, &mut dq);
-            let mut dy = vec![0.0; n];
-            modes.to_physical(&dq, &mut dy);
-            point.dy = Some(dy);
+            point.dq.resize(n, 0.0);
+            Self::modal_rate(modes, &point.q, poly, (t - t0) / h, &mut point.dq);
+            point.dy.resize(n, 0.0);
+            modes.to_physical(&point.dq, &mut point.dy);
+            point.has_dy = true;
         }
-        out.copy_from_slice(point.dy.as_ref().expect("just made"));
+        out.copy_from_slice(&point.dy);
         true
     }
 
@@ -795,7 +816,7 @@ impl<R: ModalRhs> Exponential<R> {
         let modes = &self.modes;
         let n = q0.len();
         // The last point's room, reused.
-        let mut q = cache.take().map(|p| p.q).unwrap_or_default();
+        let (mut q, y, dy, dq) = cache.take().map(|p| (p.q, p.y, p.dy, p.dq)).unwrap_or_default();
         q.clear();
         q.resize(n, 0.0);
         let tau = t - t0;
@@ -824,7 +845,7 @@ impl<R: ModalRhs> Exponential<R> {
                 }
             }
         }
-        *cache = Some(DensePoint { t, q, y: None, dy: None });
+        *cache = Some(DensePoint { t, q, y, has_y: false, dy, has_dy: false, dq });
         Some(cache)
     }
 

@@ -163,6 +163,8 @@ impl RotatingSimulation {
             time: anchor_time,
             current: anchor,
             readings: Default::default(),
+            curve_room: Default::default(),
+            spare_y0: nalgebra::DVector::zeros(0),
             onsets,
             impulse_mark,
             peak_before_anchor,

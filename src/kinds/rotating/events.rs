@@ -26,13 +26,18 @@ pub struct StepCurve<'a> {
     pub y0: &'a DVector<f64>,
     /// Room for `u(t)` and `u'(t)` (the samples' states), and for the
     /// modal route's product ([`Stepper::dense_penetration`]).
-    buffers: RefCell<(DVector<f64>, DVector<f64>, Vec<f64>)>,
+    buffers: &'a RefCell<(DVector<f64>, DVector<f64>, Vec<f64>)>,
     /// The last few contact points and gap rates, by time: the locator
     /// asks for a sample's value and rate again as the next bracket's
     /// start.
     points: RefCell<Recent<ContactPoint>>,
     rates: RefCell<Recent<f64>>,
 }
+
+/// The room a step's curve works in, kept across steps by the simulation
+/// (its contents are written before they are read).
+#[derive(Clone, Debug, Default)]
+pub struct CurveRoom(RefCell<(DVector<f64>, DVector<f64>, Vec<f64>)>);
 
 /// The last [`RECENT`] values of a function of time.
 struct Recent<T> {
@@ -63,15 +68,22 @@ impl<T: Copy + Default> Recent<T> {
 pub type Switch = (f64, Watch, f64);
 
 impl<'a> StepCurve<'a> {
-    pub fn new(phase: &'a Phase, solver: &'a Stepper, t0: f64, t1: f64, y0: &'a DVector<f64>) -> Self {
+    pub fn new(phase: &'a Phase, solver: &'a Stepper, t0: f64, t1: f64, y0: &'a DVector<f64>, room: &'a CurveRoom) -> Self {
         let dim = y0.len();
+        {
+            let (y, dy, _) = &mut *room.0.borrow_mut();
+            if y.len() != dim {
+                *y = DVector::zeros(dim);
+                *dy = DVector::zeros(dim);
+            }
+        }
         StepCurve {
             phase,
             solver,
             t0,
             t1,
             y0,
-            buffers: RefCell::new((DVector::zeros(dim), DVector::zeros(dim), Vec::new())),
+            buffers: &room.0,
             points: RefCell::new(Recent::new()),
             rates: RefCell::new(Recent::new()),
         }
@@ -82,7 +94,7 @@ impl<'a> StepCurve<'a> {
         if t <= self.t0 {
             out.copy_from(self.y0);
         } else if t >= self.t1 || !self.solver.dense(t, out) {
-            out.copy_from(&self.solver.y());
+            out.copy_from_slice(self.solver.y_slice());
         }
     }
 
@@ -283,8 +295,8 @@ impl<'a> StepCurve<'a> {
             return None;
         }
         let f = |t: f64| self.peak_point(t).force;
-        let ts: Vec<f64> = (0..=SAMPLES).map(|k| if k == SAMPLES { end } else { self.t0 + h * k as f64 / SAMPLES as f64 }).collect();
-        let fs: Vec<f64> = ts.iter().map(|&t| f(t)).collect();
+        let ts: [f64; SAMPLES + 1] = std::array::from_fn(|k| if k == SAMPLES { end } else { self.t0 + h * k as f64 / SAMPLES as f64 });
+        let fs: [f64; SAMPLES + 1] = std::array::from_fn(|k| f(ts[k]));
         let k = (0..ts.len()).fold(0, |best, i| if fs[i] > fs[best] { i } else { best });
         let xtol = 1e-8 * h;
         if k == 0 || k == SAMPLES {

@@ -48,7 +48,7 @@ use std::sync::Arc;
 
 use nalgebra::DVector;
 
-use super::events::StepCurve;
+use super::events::{CurveRoom, StepCurve};
 use super::model::RotatingModel;
 use super::readings::{Reading, Readings};
 use super::spec::RotatingSpec;
@@ -153,6 +153,10 @@ pub struct RotatingSimulation {
     pub(super) trace: Option<Vec<f64>>,
     /// What the outputs read now, made once per instant.
     pub(super) readings: Readings,
+    /// Working arrays kept across steps: a step's curve's, and the
+    /// start state of the step before the last (the next step's room).
+    pub(super) curve_room: CurveRoom,
+    pub(super) spare_y0: DVector<f64>,
 }
 
 pub use crate::solve::REANCHOR_AFTER;
@@ -212,6 +216,8 @@ impl RotatingSimulation {
             steps_since_anchor: 0,
             trace: None,
             readings: Readings::default(),
+            curve_room: Default::default(),
+            spare_y0: DVector::zeros(0),
         };
         let mut contact = Contact::Open;
         if let Some(s) = &model.surface {
@@ -373,7 +379,13 @@ impl RotatingSimulation {
 
     /// One accepted step, its first switch and its peak force.
     pub(super) fn take_step(&mut self) -> Result<(), SimError> {
-        let (t0, y0) = (self.solver.t(), self.solver.y());
+        let t0 = self.solver.t();
+        let mut y0 = std::mem::replace(&mut self.spare_y0, DVector::zeros(0));
+        if y0.len() == self.solver.y_slice().len() {
+            y0.copy_from_slice(self.solver.y_slice());
+        } else {
+            y0 = self.solver.y();
+        }
         let cap = self.release_cap(t0, &y0);
         let (a, b) = self
             .solver
@@ -388,7 +400,7 @@ impl RotatingSimulation {
         if self.phase.contact != Contact::Open {
             self.stats.contact_steps += 1;
         }
-        let curve = StepCurve::new(&self.phase, &self.solver, a, b, &y0);
+        let curve = StepCurve::new(&self.phase, &self.solver, a, b, &y0, &self.curve_room);
         let switch = curve.first_switch();
         let mut peak = curve.peak_force(switch.map_or(b, |s| s.0));
         if let Some((tp, _)) = peak {
@@ -402,7 +414,9 @@ impl RotatingSimulation {
                 }
             }
         }
-        self.step = Some(Step { t0: a, t1: b, y0, switch, peak });
+        if let Some(old) = self.step.replace(Step { t0: a, t1: b, y0, switch, peak }) {
+            self.spare_y0 = old.y0;
+        }
         Ok(())
     }
 

@@ -220,10 +220,15 @@ impl Stepper {
 
     /// The state at [`Self::t`].
     pub fn y(&self) -> DVector<f64> {
+        DVector::from_column_slice(self.y_slice())
+    }
+
+    /// [`Self::y`] without a copy.
+    pub fn y_slice(&self) -> &[f64] {
         match self {
-            Stepper::Exponential(s) => DVector::from_column_slice(s.y()),
-            Stepper::Dop853(s) => DVector::from_column_slice(s.y()),
-            Stepper::Radau(s) => s.y().clone(),
+            Stepper::Exponential(s) => s.y(),
+            Stepper::Dop853(s) => s.y(),
+            Stepper::Radau(s) => s.y().as_slice(),
         }
     }
 
