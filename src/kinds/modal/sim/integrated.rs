@@ -985,7 +985,7 @@ impl Simulation {
                     trace.push(step.1);
                 }
             }
-            let (t0, t1, _) = seg.step.clone().expect("a step");
+            let (t0, t1) = seg.step.as_ref().map(|s| (s.0, s.1)).expect("a step");
             let Some(located) = first_switch(&**seg, t0, t1, scan) else {
                 if t1 > t_end {
                     // Clear to beyond t_end; the sample grid is the
@@ -1013,11 +1013,11 @@ impl Simulation {
             // [`FROM_STEP_BEFORE_BELOW`]).
             let attempts_before_switch = seg.solver.attempts();
             let tight = self.model.integration_tolerance <= FROM_STEP_BEFORE_BELOW;
-            let (origin_t, origin_y) = match seg.origin_before(located.time).filter(|_| tight) {
-                Some((tp, yp)) => (tp, yp.clone()),
-                None => (t0, seg.step.as_ref().expect("a step").2.clone()),
+            let origin = match seg.origin_before(located.time).filter(|_| tight) {
+                Some(before) => before,
+                None => (t0, &seg.step.as_ref().expect("a step").2),
             };
-            let refined = seg.refine_zero(&located, (origin_t, &origin_y), t1, t_end, &self.model.oscillators);
+            let refined = seg.refine_zero(&located, origin, t1, t_end, &self.model.oscillators);
             let Refinement::Done(Refined { te, at, spurious, passed }) = refined else {
                 self.state.scan = self.state.scan.max(t_end);
                 return Ok(None);
