@@ -132,6 +132,13 @@ pub struct Step {
     projected: bool,
 }
 
+impl Step {
+    /// The state the step started from.
+    pub fn start(&self) -> &DVector<f64> {
+        &self.y0
+    }
+}
+
 /// A step that failed: Newton did not converge.
 #[derive(Clone, Debug)]
 pub struct NewtonFailure;

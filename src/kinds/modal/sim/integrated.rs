@@ -1096,13 +1096,23 @@ pub(super) struct IntegratedSwitch {
 }
 
 fn take_step(seg: &mut IntegratedSegment) -> Result<(), SimError> {
-    let (t0, y0) = (seg.solver.t(), seg.solver.y().clone_owned());
+    let t0 = seg.solver.t();
     let (a, b) = seg.solver.step(&seg.phase).map_err(|e| integration(t0, e.to_string()))?;
     if seg.direction_of.is_empty() {
         // The locator reads whole states at its samples.
         seg.solver.prefill(&crate::solve::switch::grid(a, b));
     }
     debug_assert_eq!(a, t0);
+    // The step's start, in the storage of the start it displaces from
+    // `previous` (no allocation per step).
+    let start = seg.solver.last_step().expect("a step").start();
+    let y0 = match seg.previous.take() {
+        Some((_, mut y)) if y.len() == start.len() => {
+            y.copy_from(start);
+            y
+        }
+        _ => start.clone(),
+    };
     seg.previous = seg.step.replace((a, b, y0)).map(|(t, _, y)| (t, y));
     seg.steps += 1;
     Ok(())
