@@ -167,7 +167,7 @@ pub struct ForceCollocation {
     contacts: Vec<PointContact>,
     /// `d_c[j] d_e[j]` at `(c * nc + e) * n + j`.
     dd: Vec<f64>,
-    scheme: Scheme,
+    scheme: &'static Scheme,
     options: CollocationOptions,
     t: f64,
     y: DVector<f64>,
@@ -224,7 +224,7 @@ impl ForceCollocation {
         }
         let h = options.h_init.min(options.h_max);
         let amax = contacts.iter().map(|c| c.d.amax()).collect();
-        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::gauss(STAGES), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), watched_contact: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
+        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::shared(), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), watched_contact: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
     }
 
     /// The free dynamics it steps, for a later phase over the same ones

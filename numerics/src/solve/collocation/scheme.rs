@@ -1,7 +1,11 @@
 //! The Gauss-Legendre scheme of force collocation on `[0, 1]` and the
 //! polynomial helpers of its monomial coefficients.
 
+use std::sync::OnceLock;
+
 use nalgebra::DMatrix;
+
+use super::STAGES;
 
 /// Gauss-Legendre nodes on `[0, 1]` and the polynomials built on them.
 #[derive(Clone, Debug)]
@@ -17,6 +21,14 @@ pub(super) struct Scheme {
 }
 
 impl Scheme {
+    /// The scheme of [`STAGES`] stages, formed once and shared by every
+    /// stepper (one per contact phase: each formed its own, a dozen
+    /// allocations).
+    pub(super) fn shared() -> &'static Scheme {
+        static SCHEME: OnceLock<Scheme> = OnceLock::new();
+        SCHEME.get_or_init(|| Scheme::gauss(STAGES))
+    }
+
     pub(super) fn gauss(s: usize) -> Self {
         let (x, w): (Vec<f64>, Vec<f64>) = match s {
             3 => (vec![-0.7745966692414834, 0.0, 0.7745966692414834], vec![5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0]),
