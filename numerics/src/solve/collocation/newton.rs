@@ -8,6 +8,7 @@ use crate::solve::lu::{Lu, Order};
 use crate::solve::matvec::mat_vec;
 use crate::solve::modal_state::ModalState;
 use super::scheme::horner;
+use super::shift::ShiftScratch;
 use super::{ForceCollocation, NewtonFailure, PointForces, Step, STAGES};
 
 /// Newton's convergence: the last correction moves every contact
@@ -28,7 +29,8 @@ const ROUNDING: f64 = 8.0 * f64::EPSILON;
 /// terms at the motion's scale is its rounding.
 const DRIFT_ROUNDING: f64 = 64.0 * f64::EPSILON;
 
-/// Working arrays of [`ForceCollocation::attempt`], kept between steps.
+/// Working arrays of [`ForceCollocation::attempt`] (and of
+/// [`ForceCollocation::shift`]), kept between steps.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Scratch {
     pub(super) pf: Vec<f64>,
@@ -54,6 +56,7 @@ pub(super) struct Scratch {
     /// An end state's storage for the next attempt (the state a step
     /// replaced, a rejected attempt's).
     pub(super) spare_state: Option<DVector<f64>>,
+    pub(super) shift: ShiftScratch,
 }
 
 /// `v` as `len` zeros (no allocation once the size is known).
@@ -147,7 +150,7 @@ impl ForceCollocation {
         let kernels = self.kernels_for(h, cached, false);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
-        let Scratch { pf, pdf, f, p, pd, law, lu, residual, moved_p, moved_v, defect, drive, fb, start, end, spare, spare_state } = &mut *guard;
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, moved_p, moved_v, defect, drive, fb, start, end, spare, spare_state, .. } = &mut *guard;
         if start.q.len() != n {
             (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
         }

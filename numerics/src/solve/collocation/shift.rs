@@ -22,6 +22,24 @@ const MAX_ANGLE: f64 = 1.0;
 /// is of the next order in the shift.
 const CHANGE_FRACTION: f64 = 1e-3;
 
+/// Working arrays of [`ForceCollocation::shift`], kept between shifts (a
+/// switch's Newton iteration shifts several times: each formed its own,
+/// a dozen allocations).
+#[derive(Clone, Debug, Default)]
+pub(super) struct ShiftScratch {
+    /// Per mode, the free kernels over the shift and the responses.
+    kernels: Vec<(f64, f64)>,
+    responses: Vec<[[f64; 2]; 2]>,
+    start: ModalState,
+    free_end: ModalState,
+    free: Option<FreeSegment>,
+    /// The state moved with the force held (the end's force is read there).
+    predicted: DVector<f64>,
+    /// Per contact, the force and dissipated power at each end.
+    at_start: Vec<(f64, f64)>,
+    at_end: Vec<(f64, f64)>,
+}
+
 impl ForceCollocation {
     /// The state at `t1` from `(t, y)` (`t1` before `t` too), or `None`
     /// where the shift is not short enough: longer than [`MAX_ANGLE`] of
@@ -42,27 +60,39 @@ impl ForceCollocation {
         if !(fastest * delta.abs() <= MAX_ANGLE) || (0..nc).any(|c| forces.held(c)) {
             return None;
         }
+        let mut guard = self.scratch.borrow_mut();
+        let ShiftScratch { kernels, responses, start, free_end, free, predicted, at_start, at_end } = &mut guard.shift;
         // Per mode: the free kernels over the shift, and the responses from
         // rest to a unit load and to one rising as (s / delta).
-        let mut kernels = vec![(0.0, 0.0); n];
-        let mut responses = vec![[[0.0; 2]; 2]; n];
+        kernels.clear();
+        kernels.resize(n, (0.0, 0.0));
+        responses.clear();
+        responses.resize(n, [[0.0; 2]; 2]);
         for (j, osc) in oscillators.iter().enumerate() {
             kernels[j] = point_responses(osc, delta, delta, &mut responses[j]);
         }
-        let mut start = ModalState::zeros(n);
+        if start.q.len() != n {
+            (*start, *free_end) = (ModalState::zeros(n), ModalState::zeros(n));
+        }
         start.q.copy_from(&y.rows(0, n));
         start.qd.copy_from(&y.rows(n, n));
-        let mut free = ModalState::zeros(n);
-        FreeSegment::new(&self.dynamics, t, &start).state_with_kernels(&self.dynamics, t1, &kernels, &mut free);
+        let free = match free {
+            Some(free) => {
+                free.reset(&self.dynamics, t, start);
+                free
+            }
+            None => free.insert(FreeSegment::new(&self.dynamics, t, start)),
+        };
+        free.state_with_kernels(&self.dynamics, t1, kernels, free_end);
         let law = |c: usize, y: &DVector<f64>| {
             let (p, pd) = self.coordinate(c, y);
             let f = forces.force(c, p, pd).0;
             (f, forces.dissipation_rate(c, p, pd, f))
         };
-        let moved = |f0: &[(f64, f64)], f1: &[(f64, f64)]| {
-            let mut out = y.clone();
+        // `out` holds `y` on entry.
+        let moved = |f0: &[(f64, f64)], f1: &[(f64, f64)], out: &mut DVector<f64>| {
             for j in 0..n {
-                let (mut x, mut v) = (free.q[j], free.qd[j]);
+                let (mut x, mut v) = (free_end.q[j], free_end.qd[j]);
                 for c in 0..nc {
                     let (a, b) = (f0[c].0, f1[c].0 - f0[c].0);
                     let dj = self.contacts[c].d[j];
@@ -75,12 +105,19 @@ impl ForceCollocation {
                 out[2 * n + c] += 0.5 * delta * (f0[c].0 + f1[c].0);
                 out[2 * n + nc + c] += 0.5 * delta * (f0[c].1 + f1[c].1);
             }
-            out
         };
-        let at_start: Vec<(f64, f64)> = (0..nc).map(|c| law(c, y)).collect();
-        let predicted = moved(&at_start, &at_start);
-        let at_end: Vec<(f64, f64)> = (0..nc).map(|c| law(c, &predicted)).collect();
-        let y1 = moved(&at_start, &at_end);
+        at_start.clear();
+        at_start.extend((0..nc).map(|c| law(c, y)));
+        if predicted.len() == y.len() {
+            predicted.copy_from(y);
+        } else {
+            *predicted = y.clone();
+        }
+        moved(at_start, at_start, predicted);
+        at_end.clear();
+        at_end.extend((0..nc).map(|c| law(c, predicted)));
+        let mut y1 = y.clone();
+        moved(at_start, at_end, &mut y1);
         // The line's difference from the force held, on each contact's rate
         // (mass-normalised modes: |d|^2 per unit impulse over a short shift),
         // and from the dissipated power held, on the energy (against the
