@@ -50,14 +50,19 @@ pub(super) struct Scratch {
     /// The step's start and the free motion at its points.
     start: ModalState,
     end: ModalState,
-    /// A step whose storage the next attempt reuses (a rejected attempt's,
-    /// the last accepted step once replaced).
-    spare: Option<Step>,
+    /// Steps whose storage the next attempts reuse, the latest last (a
+    /// rejected attempt's, the last accepted step once replaced, the
+    /// previous phase's last step), at most [`SPARE_STEPS`].
+    spares: Vec<Step>,
     /// An end state's storage for the next attempt (the state a step
     /// replaced, a rejected attempt's).
     pub(super) spare_state: Option<DVector<f64>>,
     pub(super) shift: ShiftScratch,
 }
+
+/// Spare steps kept: a phase's first two steps find one each, the
+/// previous phase's last and the spare it left.
+const SPARE_STEPS: usize = 2;
 
 /// `v` as `len` zeros (no allocation once the size is known).
 fn reset(v: &mut Vec<f64>, len: usize) {
@@ -97,20 +102,35 @@ impl ForceCollocation {
         }
     }
 
-    /// Another stepper's working arrays, for this one's attempts: a spare
-    /// step is taken as storage only (never as a retry of the same
-    /// start: its projections are on the other's contacts).
+    /// Another stepper's working arrays, for this one's attempts, with
+    /// its last step and state as spares (it is done with them): spare
+    /// steps are taken as storage only (never as a retry of the same
+    /// start: their projections are on the other's contacts).
     pub(super) fn adopt_scratch(&mut self, other: &mut ForceCollocation) {
         let mut scratch = std::mem::take(other.scratch.get_mut());
-        if let Some(spare) = &mut scratch.spare {
+        if let Some(last) = other.last.take() {
+            if scratch.spares.len() == SPARE_STEPS {
+                scratch.spares.remove(0);
+            }
+            scratch.spares.push(last);
+        }
+        for spare in &mut scratch.spares {
             spare.t0 = f64::NAN;
+        }
+        if scratch.spare_state.is_none() {
+            scratch.spare_state = Some(std::mem::replace(&mut other.y, DVector::zeros(0)));
         }
         *self.scratch.get_mut() = scratch;
     }
 
-    /// Keeps `step`'s storage for the next attempt.
+    /// Keeps `step`'s storage for the next attempts (the oldest spare
+    /// dropped past [`SPARE_STEPS`]).
     pub(super) fn recycle(&self, step: Step) {
-        self.scratch.borrow_mut().spare = Some(step);
+        let spares = &mut self.scratch.borrow_mut().spares;
+        if spares.len() == SPARE_STEPS {
+            spares.remove(0);
+        }
+        spares.push(step);
     }
 
     /// Keeps a state's storage for the next attempt's end state.
@@ -150,7 +170,7 @@ impl ForceCollocation {
         let kernels = self.kernels_for(h, cached, false);
         let r = &kernels.responses;
         let mut guard = self.scratch.borrow_mut();
-        let Scratch { pf, pdf, f, p, pd, law, lu, residual, moved_p, moved_v, defect, drive, fb, start, end, spare, spare_state, .. } = &mut *guard;
+        let Scratch { pf, pdf, f, p, pd, law, lu, residual, moved_p, moved_v, defect, drive, fb, start, end, spares, spare_state, .. } = &mut *guard;
         if start.q.len() != n {
             (*start, *end) = (ModalState::zeros(n), ModalState::zeros(n));
         }
@@ -158,7 +178,7 @@ impl ForceCollocation {
         start.qd.copy_from(&y0.rows(n, n));
         // The storage of a spare step, else new; a rejected attempt's free
         // motion and its projections where it started here too (a retry).
-        let (mut free, mut force, mut dissipation, mut y0_copy, mut projections, retry) = match spare.take() {
+        let (mut free, mut force, mut dissipation, mut y0_copy, mut projections, retry) = match spares.pop() {
             Some(Step { t0: t_spare, free, force, dissipation, y0: copy, projections, projected, .. }) => {
                 let retry = (t_spare == t0 && copy == *y0).then_some(projected);
                 (free, force, dissipation, copy, projections, retry)
