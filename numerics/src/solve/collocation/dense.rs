@@ -70,9 +70,11 @@ pub(super) struct Samples {
     sizes: Vec<SampleKernels>,
     /// Room for the kernels at a time off them.
     off: PointKernels,
-    /// The last anchor off them and its coordinates ([`anchor`]), whose
-    /// kernels `off` holds.
-    last_off: Option<(f64, Vec<(f64, f64)>)>,
+    /// The last anchor off them ([`anchor`]), whose kernels `off` and
+    /// coordinates `off_coordinates` hold (kept, not dropped, at a new
+    /// step: a zero's refinement reads at a new anchor every few queries).
+    last_off: Option<f64>,
+    off_coordinates: Vec<(f64, f64)>,
 }
 
 /// Where a query off the samples at `t` is read from: `t` on a grid of
@@ -311,16 +313,15 @@ impl ForceCollocation {
     /// The anchor of `t` (off the samples, inside step `l`) and every
     /// direction's coordinates there, `samples.off` holding its kernels.
     fn off_samples<'a>(&self, l: &Step, t: f64, samples: &'a mut Samples) -> (f64, &'a [(f64, f64)]) {
-        let Samples { projections, off, last_off, .. } = samples;
+        let Samples { projections, off, last_off, off_coordinates, .. } = samples;
         let at = Some(anchor(t)).filter(|a| *a > l.t0 && *a < l.t0 + l.h).unwrap_or(t);
-        if last_off.as_ref().map_or(true, |(t_last, _)| *t_last != at) {
-            let mut coordinates = Vec::with_capacity(projections.len());
+        if *last_off != Some(at) {
             self.point_kernels(at - l.t0, l.h, off);
-            self.project(l, at, projections, &off.free, &off.responses, &mut coordinates);
-            *last_off = Some((at, coordinates));
+            off_coordinates.clear();
+            self.project(l, at, projections, &off.free, &off.responses, off_coordinates);
+            *last_off = Some(at);
         }
-        let (at, coordinates) = last_off.as_ref().expect("just made");
-        (*at, coordinates)
+        (at, off_coordinates)
     }
 
     /// The index in `samples.sizes` of the sample kernels of step `l`'s
