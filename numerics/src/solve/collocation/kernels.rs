@@ -22,7 +22,7 @@ pub(super) use super::super::step_ladder as ladder;
 /// What every step of one size needs, mode by mode: the responses to the
 /// force monomials and the free kernels at the nodes and the end, and for
 /// the switch grid the propagator over a grid interval.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct StepKernels {
     pub(super) h: f64,
     /// `R[(i * n + j) * (s + 2) + m]`: mode `j`'s response at point `i`
@@ -88,27 +88,66 @@ impl ForceCollocation {
                 return k;
             }
         }
+        // A size not kept in the storage of the last such size's, once
+        // no attempt holds it.
+        if !keep {
+            let mut unkept = self.unkept_kernels.borrow_mut();
+            if let Some(kernels) = unkept.as_mut().and_then(Arc::get_mut) {
+                self.fill_kernels(h, grid, kernels);
+                return unkept.clone().expect("just filled");
+            }
+        }
+        let mut kernels = StepKernels::default();
+        self.fill_kernels(h, grid, &mut kernels);
+        let kernels = Arc::new(kernels);
+        if keep {
+            let mut cache = self.kernels.borrow_mut();
+            cache.retain(|k| k.h != h);
+            if cache.len() >= KERNEL_SETS {
+                cache.remove(0);
+            }
+            cache.push(kernels.clone());
+        } else {
+            *self.unkept_kernels.borrow_mut() = Some(kernels.clone());
+        }
+        kernels
+    }
+
+    /// Fills `out` (its vectors cleared first) with the kernels of steps
+    /// of size `h`, with the grid's when `grid`.
+    fn fill_kernels(&self, h: f64, grid: bool, out: &mut StepKernels) {
         let (n, s) = (self.n, self.scheme.s);
-        let points: Vec<f64> = self.scheme.c.iter().map(|c| c * h).chain(std::iter::once(h)).collect();
+        let mut nodes_and_end = [0.0; STAGES + 1];
+        for (tau, c) in nodes_and_end.iter_mut().zip(&self.scheme.c) {
+            *tau = c * h;
+        }
+        nodes_and_end[s] = h;
+        let points = &nodes_and_end[..=s];
         let mono = s + 2;
         // Filled in order, point by point and mode by mode (no zeroing
         // first: a new size's tables are some 10 kB).
-        let mut responses = Vec::with_capacity(points.len() * n * mono);
-        let mut free = Vec::with_capacity(points.len() * n);
+        let StepKernels { h: size, responses, free, grid_propagator, grid_responses, grid_free, node_rotations } = out;
+        *size = h;
+        responses.clear();
+        responses.reserve(points.len() * n * mono);
+        free.clear();
+        free.reserve(points.len() * n);
         let mut phis = [[0.0; 2]; 8];
         let mut point = [[0.0; 2]; STAGES + 2];
-        for &tau in &points {
+        for &tau in points {
             for osc in &self.dynamics.oscillators {
                 free.push(point_responses(osc, tau, h, &mut point[..mono]));
                 responses.extend_from_slice(&point[..mono]);
             }
         }
-        let (mut grid_propagator, mut grid_responses, mut grid_free) = (Vec::new(), Vec::new(), Vec::new());
+        grid_propagator.clear();
+        grid_responses.clear();
+        grid_free.clear();
         if grid {
             let delta = h / GRID as f64;
-            grid_propagator = vec![[0.0; 4]; n];
-            grid_responses = vec![[0.0; 2]; n * s];
-            grid_free = vec![(0.0, 0.0); GRID * n];
+            grid_propagator.resize(n, [0.0; 4]);
+            grid_responses.resize(n * s, [0.0; 2]);
+            grid_free.resize(GRID * n, (0.0, 0.0));
             for (j, osc) in self.dynamics.oscillators.iter().enumerate() {
                 phi_columns(osc, delta, &mut phis[..s + 1]);
                 let (ec, es) = kernels_of(phis[0], osc.a);
@@ -124,17 +163,8 @@ impl ForceCollocation {
             }
         }
         let harmonics = &self.dynamics.forcing.harmonics;
-        let node_rotations = points[..s].iter().flat_map(|&tau| harmonics.iter().map(move |hm| steady_rotation(hm.omega, tau))).collect();
-        let kernels = Arc::new(StepKernels { h, responses, free, grid_propagator, grid_responses, grid_free, node_rotations });
-        if keep {
-            let mut cache = self.kernels.borrow_mut();
-            cache.retain(|k| k.h != h);
-            if cache.len() >= KERNEL_SETS {
-                cache.remove(0);
-            }
-            cache.push(kernels.clone());
-        }
-        kernels
+        node_rotations.clear();
+        node_rotations.extend(points[..s].iter().flat_map(|&tau| harmonics.iter().map(move |hm| steady_rotation(hm.omega, tau))));
     }
 
     /// The contact coordinates' responses to the contacts' forces for the
@@ -149,12 +179,42 @@ impl ForceCollocation {
                 return p;
             }
         }
+        // A size not kept in the storage of the last such size's, once
+        // no attempt holds it.
+        if !cached {
+            let mut unkept = self.unkept_projections.borrow_mut();
+            if let Some(projected) = unkept.as_mut().and_then(Arc::get_mut) {
+                self.fill_projected(kernels, projected);
+                return unkept.clone().expect("just filled");
+            }
+        }
+        let mut projected = Projected { h, sm: Vec::new(), mp: DMatrix::zeros(0, 0), mv: DMatrix::zeros(0, 0) };
+        self.fill_projected(kernels, &mut projected);
+        let projected = Arc::new(projected);
+        if cached {
+            let mut cache = self.projections.borrow_mut();
+            if cache.len() >= KERNEL_SETS {
+                cache.remove(0);
+            }
+            cache.push(projected.clone());
+        } else {
+            *self.unkept_projections.borrow_mut() = Some(projected.clone());
+        }
+        projected
+    }
+
+    /// Fills `out` with the contact coordinates' responses for the step
+    /// size of `kernels`.
+    fn fill_projected(&self, kernels: &StepKernels, out: &mut Projected) {
         let (n, s, nc) = (self.n, self.scheme.s, self.contacts.len());
         let ns = nc * s;
         let mono = s + 2;
         let r = &kernels.responses;
+        let Projected { h, sm, mp, mv } = out;
+        *h = kernels.h;
         // Monomial responses of the contact coordinates: S[((c * nc + e) * (s + 1) + i) * mono + m].
-        let mut sm = vec![[0.0; 2]; nc * nc * (s + 1) * mono];
+        sm.clear();
+        sm.resize(nc * nc * (s + 1) * mono, [0.0; 2]);
         for c in 0..nc {
             for e in 0..nc {
                 let dd = &self.dd[(c * nc + e) * n..(c * nc + e + 1) * n];
@@ -172,8 +232,12 @@ impl ForceCollocation {
             }
         }
         // In the nodal basis at the nodes: mp[(c, i), (e, k)], mv likewise.
-        let mut mp = DMatrix::zeros(ns, ns);
-        let mut mv = DMatrix::zeros(ns, ns);
+        if mp.shape() == (ns, ns) {
+            mp.fill(0.0);
+            mv.fill(0.0);
+        } else {
+            (*mp, *mv) = (DMatrix::zeros(ns, ns), DMatrix::zeros(ns, ns));
+        }
         for c in 0..nc {
             for e in 0..nc {
                 for i in 0..s {
@@ -191,15 +255,6 @@ impl ForceCollocation {
                 }
             }
         }
-        let projected = Arc::new(Projected { h, sm, mp, mv });
-        if cached {
-            let mut cache = self.projections.borrow_mut();
-            if cache.len() >= KERNEL_SETS {
-                cache.remove(0);
-            }
-            cache.push(projected.clone());
-        }
-        projected
     }
 
     /// Takes the kernel sets of another stepper over the same structure
@@ -223,6 +278,8 @@ impl ForceCollocation {
         }
         self.adopt_scratch(other);
         self.samples.get_mut().adopt_storage(other.samples.get_mut());
+        *self.unkept_kernels.get_mut() = other.unkept_kernels.get_mut().take();
+        *self.unkept_projections.get_mut() = other.unkept_projections.get_mut().take();
     }
 
 }

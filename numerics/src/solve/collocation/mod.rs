@@ -189,6 +189,10 @@ pub struct ForceCollocation {
     kernels: std::cell::RefCell<Vec<Arc<StepKernels>>>,
     /// The contact responses of those sizes (this phase's contacts).
     projections: std::cell::RefCell<Vec<Arc<Projected>>>,
+    /// The last kernels and contact responses of a size not kept (a
+    /// landing's), whose storage the next such size reuses.
+    unkept_kernels: std::cell::RefCell<Option<Arc<StepKernels>>>,
+    unkept_projections: std::cell::RefCell<Option<Arc<Projected>>>,
     scratch: std::cell::RefCell<Scratch>,
     /// The largest `|d_j|` of each contact.
     amax: Vec<f64>,
@@ -224,7 +228,7 @@ impl ForceCollocation {
         }
         let h = options.h_init.min(options.h_max);
         let amax = contacts.iter().map(|c| c.d.amax()).collect();
-        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::shared(), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), watched_contact: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
+        ForceCollocation { n, dynamics, contacts, dd, scheme: Scheme::shared(), options, t: t0, y: y0, h, last: None, memo: Default::default(), watched: Vec::new(), watched_weights: Vec::new(), watched_contact: Vec::new(), samples: Default::default(), kernels: Default::default(), projections: Default::default(), unkept_kernels: Default::default(), unkept_projections: Default::default(), scratch: Default::default(), amax, accepted: 0, rejected: 0, attempts: Default::default() }
     }
 
     /// The free dynamics it steps, for a later phase over the same ones
