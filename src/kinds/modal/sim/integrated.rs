@@ -102,8 +102,9 @@ pub(super) struct IntegratedSegment {
     direction_of: Vec<usize>,
     coordinates: std::cell::RefCell<Vec<(f64, f64)>>,
     /// What the acceleration depends on besides the state: a held stop's
-    /// reaction, a force's rate.
-    pub equations: PhaseEquations,
+    /// reaction, a force's rate. Shared with the phase before where its
+    /// dynamics and contact directions are these.
+    pub equations: std::sync::Arc<PhaseEquations>,
 }
 
 /// The modal loads and coefficients the acceleration is formed from (a
@@ -152,6 +153,12 @@ impl PhaseEquations {
             })
             .collect();
         PhaseEquations { forcing, stiffness, damping, along }
+    }
+
+    /// Whether equations formed for `formed_for` serve `phase` too: its
+    /// contacts lie along the same directions (under the same dynamics).
+    fn serve(formed_for: &NonlinearPhase, phase: &NonlinearPhase) -> bool {
+        formed_for.contacts.len() == phase.contacts.len() && formed_for.contacts.iter().zip(&phase.contacts).all(|(a, b)| a.geometry.w == b.geometry.w && a.geometry.side == b.geometry.side)
     }
 
     /// Every contact's push at `t` in `y` (zero but for the held ones).
@@ -847,13 +854,18 @@ impl Simulation {
         }
         let options = CollocationOptions { tol, q_scale, v_scale, h_init: h_init.min(h_max), h_max, corner_fraction };
         // The previous phase's dynamics where they are these (unchanged
-        // inputs): shared, not copied.
-        let dynamics = match &self.spare {
-            Some(super::Segment::Integrated(previous)) if **previous.solver.shared_dynamics() == self.dynamics => previous.solver.shared_dynamics().clone(),
-            _ => std::sync::Arc::new(self.dynamics.clone()),
+        // inputs): shared, not copied; its equations too where its
+        // contacts lie along the same directions (some dozen vectors).
+        let previous = match &self.spare {
+            Some(super::Segment::Integrated(previous)) if **previous.solver.shared_dynamics() == self.dynamics => Some(previous),
+            _ => None,
+        };
+        let dynamics = previous.map_or_else(|| std::sync::Arc::new(self.dynamics.clone()), |p| p.solver.shared_dynamics().clone());
+        let equations = match previous {
+            Some(p) if PhaseEquations::serve(&p.phase, &phase) => p.equations.clone(),
+            _ => std::sync::Arc::new(PhaseEquations::new(self.dynamics.forcing.clone(), &self.dynamics.oscillators, &phase)),
         };
         let mut solver = ForceCollocation::new(dynamics, points, self.state.anchor_time, anchor.clone(), options);
-        let equations = PhaseEquations::new(self.dynamics.forcing.clone(), &self.dynamics.oscillators, &phase);
         // The directions the switch locator reads: each engaged contact's
         // (its penetration, rate and force) and each open stop's gap.
         let mut directions: Vec<DVector<f64>> = Vec::new();
