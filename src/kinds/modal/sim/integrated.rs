@@ -93,7 +93,8 @@ pub(super) struct IntegratedSegment {
     pub steps: u64,
     /// The fastest mode's angular frequency.
     fastest: f64,
-    /// Room for one integrated state (the switch locator's samples).
+    /// Room for one integrated state (the switch locator's samples, the
+    /// states and totals the outputs read).
     buffer: std::cell::RefCell<DVector<f64>>,
     /// Per evaluator, the watched direction it reads inside a step
     /// ([`ForceCollocation::watched_coordinates`]; empty when one of them
@@ -240,7 +241,7 @@ impl IntegratedSegment {
 
     pub fn state_at(&self, t: f64, out: &mut ModalState) {
         let n = self.phase.n;
-        let mut y = DVector::zeros(self.phase.dim());
+        let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
         out.q.copy_from(&y.rows(0, n));
         out.qd.copy_from(&y.rows(n, n));
@@ -249,7 +250,7 @@ impl IntegratedSegment {
     /// The impulse and dissipated energy of the phase's contact `i` from
     /// the anchor to `t`.
     pub fn totals_at(&self, i: usize, t: f64) -> (f64, f64) {
-        let mut y = DVector::zeros(self.phase.dim());
+        let mut y = self.buffer.borrow_mut();
         self.y_at(t, &mut y);
         let (n, nc) = (self.phase.n, self.phase.contacts.len());
         (y[2 * n + i], y[2 * n + nc + i])
