@@ -730,11 +730,11 @@ impl IntegratedSegment {
     /// Computes and keeps the state at `t` inside the last step to the
     /// method's full order (see [`Self::exact`]).
     pub fn settle_at(&mut self, t: f64) {
-        let Some((t0, t1, y0)) = self.step.clone() else { return };
-        if t <= t0 || t >= t1 || t > self.solver.t() {
+        let Some((t0, t1, y0)) = &self.step else { return };
+        if t <= *t0 || t >= *t1 || t > self.solver.t() {
             return;
         }
-        if let Ok(y) = self.solver.single_step(&self.phase, t0, &y0, t, self.solver.near_corner(t)) {
+        if let Ok(y) = self.solver.single_step(&self.phase, *t0, y0, t, self.solver.near_corner(t)) {
             self.exact = Some((t, y));
         }
     }
