@@ -297,10 +297,15 @@ impl ModalEquations {
         let m = self.products.m;
         assert!(p.len() == m && pd.len() == m && g.len() == m, "modal remainder: {m} coordinates");
         let ModalEquations { products: this, scratch } = self;
+        // The rooms keep the batch's length ([`Self::remainders`]): cut
+        // to one point's and grown again, they were zeroed at each batch.
         for v in scratch.iter_mut() {
-            v.resize(m, 0.0);
+            if v.len() < m {
+                v.resize(m, 0.0);
+            }
         }
         let [gp, hp, lp, sp, tmp] = scratch;
+        let (gp, hp, lp, sp, tmp) = (&mut gp[..m], &mut hp[..m], &mut lp[..m], &mut sp[..m], &mut tmp[..m]);
         mat_vec(this.g_md.as_slice(), p, gp);
         let slow = this.left_slow.nrows();
         mat_vec(this.left_slow.as_slice(), p, &mut g[..slow]);
