@@ -620,7 +620,7 @@ impl<R: ModalRhs> Exponential<R> {
         for (v, s) in values.iter_mut().zip(states.iter_mut()) {
             v.clear();
             v.extend_from_slice(&self.g);
-            s.clear();
+            // Each node's state is written before it is read.
             s.resize(n, 0.0);
         }
         // A rejected attempt's size and polynomial.
@@ -815,9 +815,8 @@ impl<R: ModalRhs> Exponential<R> {
         }
         let modes = &self.modes;
         let n = q0.len();
-        // The last point's room, reused.
+        // The last point's room, reused (every entry written below).
         let (mut q, y, dy, dq) = cache.take().map(|p| (p.q, p.y, p.dy, p.dq)).unwrap_or_default();
-        q.clear();
         q.resize(n, 0.0);
         let tau = t - t0;
         let end = if tau.abs() <= NEAR_END * h {
