@@ -7,29 +7,32 @@ use nalgebra::DMatrix;
 
 use super::STAGES;
 
-/// Gauss-Legendre nodes on `[0, 1]` and the polynomials built on them.
+/// Gauss-Legendre nodes on `[0, 1]` and the polynomials built on them, in
+/// arrays: the one scheme lives in a static ([`Self::shared`]), and heap
+/// memory of a static outlives an FMU's library once it is unloaded
+/// (valgrind's "definitely lost").
 #[derive(Clone, Debug)]
 pub(super) struct Scheme {
     pub(super) s: usize,
-    pub(super) c: Vec<f64>,
-    pub(super) b: Vec<f64>,
+    pub(super) c: [f64; STAGES],
+    pub(super) b: [f64; STAGES],
     /// Monomial coefficients of the Lagrange basis: `vinv[m * s + k]` is
     /// the coefficient of `sigma^m` in `l_k`.
-    pub(super) vinv: Vec<f64>,
+    pub(super) vinv: [f64; STAGES * STAGES],
     /// Monomial coefficients of `w_s(sigma) = prod (sigma - c_i)`.
-    pub(super) node_poly: Vec<f64>,
+    pub(super) node_poly: [f64; STAGES + 1],
 }
 
 impl Scheme {
     /// The scheme of [`STAGES`] stages, formed once and shared by every
-    /// stepper (one per contact phase: each formed its own, a dozen
-    /// allocations).
+    /// stepper (one per contact phase).
     pub(super) fn shared() -> &'static Scheme {
         static SCHEME: OnceLock<Scheme> = OnceLock::new();
         SCHEME.get_or_init(|| Scheme::gauss(STAGES))
     }
 
-    pub(super) fn gauss(s: usize) -> Self {
+    /// The scheme of `s` = [`STAGES`] stages.
+    fn gauss(s: usize) -> Self {
         let (x, w): (Vec<f64>, Vec<f64>) = match s {
             3 => (vec![-0.7745966692414834, 0.0, 0.7745966692414834], vec![5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0]),
             4 => (
@@ -48,10 +51,10 @@ impl Scheme {
         };
         let c: Vec<f64> = x.iter().map(|x| 0.5 * (1.0 + x)).collect();
         let b: Vec<f64> = w.iter().map(|w| 0.5 * w).collect();
-        let v = DMatrix::from_fn(s, s, |i, m| c[i].powi(m as i32));
+        let v = DMatrix::from_fn(s, s, |i, m| power(c[i], m as u32));
         let inv = v.try_inverse().expect("distinct nodes");
         // inv[(m, k)]: coefficient m of the polynomial that is 1 at node k.
-        let vinv = (0..s * s).map(|idx| inv[(idx / s, idx % s)]).collect();
+        let vinv: Vec<f64> = (0..s * s).map(|idx| inv[(idx / s, idx % s)]).collect();
         let mut node_poly = vec![1.0];
         for ci in &c {
             let mut next = vec![0.0; node_poly.len() + 1];
@@ -61,7 +64,10 @@ impl Scheme {
             }
             node_poly = next;
         }
-        Scheme { s, c, b, vinv, node_poly }
+        fn array<const N: usize>(v: Vec<f64>) -> [f64; N] {
+            v.try_into().expect("sized by STAGES")
+        }
+        Scheme { s, c: array(c), b: array(b), vinv: array(vinv), node_poly: array(node_poly) }
     }
 
     /// Monomial coefficients `alpha[m] = sum_k vinv[m][k] values[k]`.
@@ -70,6 +76,24 @@ impl Scheme {
         for (m, o) in out.iter_mut().enumerate() {
             *o = (0..s).map(|k| self.vinv[m * s + k] * values[k]).sum();
         }
+    }
+}
+
+/// `x^m` by binary powering, as `f64::powi` runs (compiler-rt's
+/// `__powidf2`). `powi` of constants is folded by the compiler with one
+/// rounding, so the scheme's bits would hang on whether its nodes are
+/// known where it is formed.
+fn power(mut x: f64, mut m: u32) -> f64 {
+    let mut r = 1.0;
+    loop {
+        if m & 1 == 1 {
+            r *= x;
+        }
+        m /= 2;
+        if m == 0 {
+            return r;
+        }
+        x *= x;
     }
 }
 
