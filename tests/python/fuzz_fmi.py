@@ -43,10 +43,12 @@ import json
 import math
 import random
 import re
+import shutil
 import struct
 import sys
 import tempfile
 import time
+import weakref
 import zipfile
 from ctypes import POINTER, byref, c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
 from pathlib import Path
@@ -98,6 +100,7 @@ class Harness:
         self.seed = seed
         self.md = read_model_description(fmu)
         self.dir = Path(tempfile.mkdtemp(prefix="fuzz"))
+        weakref.finalize(self, shutil.rmtree, self.dir, ignore_errors=True)  # the extracted FMU
         with zipfile.ZipFile(fmu) as z:
             z.extractall(self.dir)
         ident = self.md.coSimulation.modelIdentifier

@@ -57,8 +57,10 @@ import ctypes
 import json
 import math
 import random
+import shutil
 import sys
 import tempfile
+import weakref
 import zipfile
 from ctypes import CFUNCTYPE, POINTER, byref, c_char_p, c_double, c_int, c_int32, c_size_t, c_uint, c_uint8, c_void_p
 from pathlib import Path
@@ -114,6 +116,7 @@ class Harness3(Harness):
         self.md = read_model_description(fmu)
         assert self.md.fmiVersion.startswith("3"), f"{fmu} is not an FMI 3.0 FMU"
         self.dir = Path(tempfile.mkdtemp(prefix="fuzz3"))
+        weakref.finalize(self, shutil.rmtree, self.dir, ignore_errors=True)  # the extracted FMU
         with zipfile.ZipFile(fmu) as z:
             z.extractall(self.dir)
         ident = self.md.coSimulation.modelIdentifier

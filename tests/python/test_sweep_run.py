@@ -31,9 +31,10 @@ BASE = ["--set", "F=72", "--set", "omega=0.7*pi**2", "--set", "eps=1e-3",
         "--discard", str(DISCARD), "--record", str(RECORD), "--samples-per-period", str(SPP), "--no-plots"]
 
 
-def sweep(*args, check=True):
+def sweep(*args, check=True, tmpdir=None):
+    env = None if tmpdir is None else {**os.environ, "TMPDIR": str(tmpdir)}
     run = subprocess.run([sys.executable, "-m", "beamstop_tools.sweep", *map(str, args)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=300)
+                         capture_output=True, text=True, timeout=300, env=env)
     if check:
         assert run.returncode == 0, run.stderr
     return run
@@ -90,14 +91,21 @@ def smallest_period(x, v, tol):
 
 @pytest.fixture(scope="module")
 def gap_sweep(tmp_path_factory):
-    out = tmp_path_factory.mktemp("gap")
+    out, tmp = tmp_path_factory.mktemp("gap"), tmp_path_factory.mktemp("gap_tmp")
     run = sweep(PINNED, "--param", f"d={GAPS[0]}:{GAPS[-1]}:{len(GAPS)}", *BASE, "--out", out, "--workers", 2,
-                "--points-per-task", 2)
-    return out, run
+                "--points-per-task", 2, tmpdir=tmp)
+    return out, run, tmp
+
+
+def test_the_workers_remove_their_extracted_fmus(gap_sweep):
+    """Each worker extracts the FMU to a temporary folder: gone when the
+    sweep ends (a study of many sweeps does not fill the disk)."""
+    left = sorted(p.name for p in gap_sweep[2].iterdir())
+    assert not [name for name in left if name.startswith("beamstop-sweep-")], left
 
 
 def test_each_point_matches_a_plain_fmpy_loop(gap_sweep):
-    out, _ = gap_sweep
+    out, _, _ = gap_sweep
     rows = rows_of(out / "points.parquet")
     assert len(rows) == len(GAPS)
     plain = Plain()
@@ -139,7 +147,7 @@ def test_each_point_matches_a_plain_fmpy_loop(gap_sweep):
 
 
 def test_the_table_carries_guid_settings_and_versions(gap_sweep):
-    out, run = gap_sweep
+    out, run, _ = gap_sweep
     table = pq.read_table(out / "points.parquet")
     meta = __import__("json").loads(table.schema.metadata[b"beamstop.sweep"])
     assert meta["guid"] == read_model_description(str(PINNED)).guid
@@ -154,7 +162,7 @@ def test_the_table_carries_guid_settings_and_versions(gap_sweep):
 
 
 def test_resume_recomputes_only_the_lost_points(gap_sweep, tmp_path):
-    out, _ = gap_sweep
+    out, _, _ = gap_sweep
     first = rows_of(out / "points.parquet")
     parts = sorted((out / "parts").glob("*.parquet"))
     assert len(parts) == 3                       # 6 points, 2 per task
@@ -215,12 +223,15 @@ def test_an_external_scheduler_gives_the_local_table(gap_sweep, tmp_path):
     port = _free_port()
     dask = os.path.join(os.path.dirname(sys.executable), "dask")
     address = f"tcp://127.0.0.1:{port}"
+    worker_tmp = tmp_path / "worker_tmp"
+    worker_tmp.mkdir()
     procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
     try:
         time.sleep(1.0)
         procs.append(subprocess.Popen([dask, "worker", address, "--nworkers", "2", "--nthreads", "1",
                                        "--no-dashboard", "--host", "127.0.0.1"], cwd=ROOT,
+                                      env={**os.environ, "TMPDIR": str(worker_tmp)},
                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         run = sweep(PINNED, "--param", f"d={GAPS[0]}:{GAPS[-1]}:{len(GAPS)}", *BASE, "--out", tmp_path,
                     "--scheduler", address)
@@ -230,6 +241,8 @@ def test_an_external_scheduler_gives_the_local_table(gap_sweep, tmp_path):
             p.terminate()
         for p in procs:
             p.wait(timeout=30)
+    assert not [p.name for p in worker_tmp.iterdir() if p.name.startswith("beamstop-sweep-")], \
+        "a stopped worker left its extracted FMU"
     remote = rows_of(tmp_path / "points.parquet")
     assert remote.keys() == local.keys()
     for key, r in local.items():

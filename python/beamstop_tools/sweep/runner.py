@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 import tempfile
 import threading
 import time
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,14 +67,17 @@ def plan_for(spec) -> Plan:
 
 
 class Instance:
-    """One FMU instance with a logger that keeps the last messages."""
+    """One FMU instance with a logger that keeps the last messages.
+
+    The FMU is extracted to a temporary folder only while an instance is
+    made: the loaded library and the instance read nothing from it later,
+    and a worker process may end without running exit handlers (Dask's end
+    a process at once when its nanny goes), so the folder is removed at
+    once. Where a loaded library cannot be removed (Windows), the folder is
+    removed when the process exits normally."""
 
     def __init__(self, fmu_data: bytes, plan: Plan):
-        self.dir = tempfile.mkdtemp(prefix="beamstop-sweep-")
-        path = os.path.join(self.dir, "model.fmu")
-        with open(path, "wb") as f:
-            f.write(fmu_data)
-        self.fmu = engine.Fmu(path, unzipdir=os.path.join(self.dir, "x"))
+        self.fmu_data = fmu_data
         self.messages: list[str] = []
         self.plan = plan
         self._new()
@@ -81,7 +86,17 @@ class Instance:
         self.messages = (self.messages + [text])[-5:]
 
     def _new(self):
-        self.session = engine.Session(self.fmu, "sweep", logger=self._log, logging_on=False)
+        folder = tempfile.mkdtemp(prefix="beamstop-sweep-")
+        try:
+            path = os.path.join(folder, "model.fmu")
+            with open(path, "wb") as f:
+                f.write(self.fmu_data)
+            self.fmu = engine.Fmu(path, unzipdir=os.path.join(folder, "x"))
+            self.session = engine.Session(self.fmu, "sweep", logger=self._log, logging_on=False)
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+            if os.path.exists(folder):
+                weakref.finalize(self, shutil.rmtree, folder, ignore_errors=True)
         self.slave = self.session.slave
         self.used = False
         self.piece = None      # longest step the work cap allows, learnt from fmi2Discard
@@ -104,6 +119,13 @@ class Instance:
     def set(self, values: dict) -> None:
         self.session.set(values)
 
+    def close(self) -> None:
+        """Frees the FMU instance."""
+        try:
+            self.slave.freeInstance()
+        except Exception:
+            pass
+
     def failure(self, err: Exception) -> str:
         last = f": {self.messages[-1]}" if self.messages else ""
         return f"{err}{last}"
@@ -117,6 +139,8 @@ def instance(fmu_data: bytes, plan: Plan) -> Instance:
     key = (plan.guid, threading.get_ident())
     inst = _INSTANCES.get(key)
     if inst is None or inst.plan != plan:
+        if inst is not None:
+            inst.close()
         inst = _INSTANCES[key] = Instance(fmu_data, plan)
     return inst
 
