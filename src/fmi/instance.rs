@@ -548,11 +548,11 @@ impl Instance {
         let result = sim.apply_events();
         let events = sim.drain_events();
         self.log_events(&events);
+        // Made or failed, the change is no longer pending (a failure ends
+        // in the Error state, which has no event to make).
+        self.pending = false;
         match result {
-            Ok(()) => {
-                self.pending = false;
-                Ok(true)
-            }
+            Ok(()) => Ok(true),
             Err(e) => {
                 self.machine = ModelState::Error;
                 Err(self.fail(&format!("{}: {e}", f.name())))

@@ -90,6 +90,11 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     let parameters = r.f64s(table.interface.parameters.len(), "parameters")?;
     let inputs = r.f64s(table.interface.inputs.len(), "inputs")?;
     let has_sim = r.u8()? != 0;
+    // The instance state first: an Error state is refused as such, whatever
+    // else it holds.
+    if matches!(machine, ModelState::Error | ModelState::Fatal) {
+        return Err(format!("serialized state: instance state {machine:?} cannot be restored"));
+    }
     if (machine == ModelState::EventMode || pending) && !made_with.event_mode_used {
         return Err("serialized state: in event mode or with an event pending, saved by an instance without event mode".into());
     }
@@ -97,9 +102,6 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
         return Err(format!("serialized state: an event pending in instance state {machine:?}"));
     }
     match machine {
-        ModelState::Error | ModelState::Fatal => {
-            return Err(format!("serialized state: instance state {machine:?} cannot be restored"));
-        }
         ModelState::Instantiated | ModelState::InitializationMode if has_sim => {
             return Err(format!("serialized state: instance state {machine:?} with a running simulation"));
         }

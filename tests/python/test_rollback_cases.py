@@ -109,6 +109,41 @@ def test_a_state_saved_in_event_mode_is_refused_by_an_instance_without_it():
         s.freeInstance()
 
 
+def test_a_change_that_fails_at_an_early_return_leaves_a_plain_error_state():
+    """Without event mode the FMU makes an early return's discrete change
+    itself. HertzStop started at t = 1e6 with mode 15 at 41,665 m/s (inside
+    its range) needs contact steps the time cannot resolve there: the change
+    at the first onset fails, saying so. The instance is then in the Error
+    state, and the state it saves is refused as that (the FMU restores no
+    Error state), not as one with an event left pending (the fuzzer's seed
+    9102 found it)."""
+    fmu = str(FMU3_DIR / "HertzStop.fmu")
+    md = read_model_description(fmu)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    messages = []
+
+    @fmi3LogMessageCallback
+    def log(env, status, category, message):
+        messages.append(message.decode())
+
+    s = FMU3Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="early")
+    s.instantiate(eventModeUsed=False, earlyReturnAllowed=True, logMessage=log)
+    s.enterInitializationMode(startTime=1e6, stopTime=1e6 + 1.0)
+    s.setFloat64([vr["qd0[15]"]], [41665.2597365613])
+    s.exitInitializationMode()
+    with pytest.raises(FMICallException):
+        s.doStep(1e6, 1e-4)
+    assert "the resolution of the time there" in messages[-1], messages[-1]
+    state = s.getFMUState()
+    blob = s.serializeFMUState(state)
+    with pytest.raises(FMICallException):
+        s.deserializeFMUState(blob)
+    assert "instance state Error cannot be restored" in messages[-1], messages[-1]
+    s.freeFMUState(state)
+    s.freeInstance()
+
+
 @pytest.mark.parametrize("name", ["PinnedBeamStop", "SpinUpBeam", "RotatingBeamImpact", "HertzStop"])
 def test_a_start_time_the_clock_cannot_resolve_is_refused_at_once(name):
     """1e300 (FMI 3.0's fmi3EnterInitializationMode) and 1e308 (FMI 2.0's

@@ -152,7 +152,14 @@ pub enum CollocationError {
 impl std::fmt::Display for CollocationError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            CollocationError::StepTooSmall { t, h } => write!(f, "force collocation step fell to {h:e} s at t = {t} s"),
+            CollocationError::StepTooSmall { t, h } => {
+                write!(f, "force collocation step fell to {h:e} s at t = {t} s")?;
+                // Below a step of 1e-15 of t the time cannot resolve it.
+                if *h > 1e-300 && 1e-15 * t.abs() >= *h {
+                    write!(f, " (below {:.1e} s, the resolution of the time there: a start time nearer 0 resolves finer steps)", 1e-15 * t.abs())?;
+                }
+                Ok(())
+            }
         }
     }
 }
