@@ -1351,3 +1351,33 @@ fn u_outputs_follow_every_change_at_one_instant() {
         check(&sim, &format!("step {k}"));
     }
 }
+
+/// (v) A free flight whose steps turn the hub far is still searched for
+/// the surface. The DWZ beam undeformed, spinning freely (no torque) at
+/// 2 rad/s from an angle where its tip is clear of the surface (the line
+/// y = 0 through the tip's start, solid above), turns rigidly until the
+/// tip reaches the line: at theta = 2 pi turning up, at theta = pi turning
+/// down, at `t = |theta_hit - theta_0| / 2`. Free rigid rotation is exact
+/// for both integrators, so their steps grow to turn the hub by radians;
+/// the switch locator's speed bound took the gap's gradient at a step's
+/// start for the whole step, and the tip passed through the surface
+/// unseen (0 events over 2.6 s from theta_0 = 3.3629).
+#[test]
+fn v_a_step_turning_the_hub_far_still_finds_the_surface() {
+    use beamstop::kinds::rotating::stepper::Method;
+    for method in [Method::Exponential, Method::Dop853] {
+        for (theta0, theta_dot, theta_hit) in [(3.3629, 2.0, TAU), (5.9, -2.0, 0.5 * TAU), (4.0, 2.0, TAU)] {
+            let mut spec = scene("rotating_beam");
+            spec.solver.method = method;
+            spec.initial.theta = theta0;
+            spec.initial.theta_dot = theta_dot;
+            let mut sim = RotatingSimulation::new(Arc::new(RotatingModel::new(&spec).unwrap()), 0.0).unwrap();
+            let expected: f64 = (theta_hit - theta0) / theta_dot;
+            sim.advance_to(expected + 0.01).unwrap();
+            let onset = sim.drain_events().into_iter().find(|e| matches!(e.kind, RotatingEventKind::Onset { .. })).map(|e| e.time);
+            eprintln!("(v) {method:?} from theta {theta0} at {theta_dot} rad/s: onset {onset:?}, rigid rotation {expected}");
+            let onset = onset.unwrap_or_else(|| panic!("{method:?} from theta {theta0}: no contact by {} s", expected + 0.01));
+            assert!((onset - expected).abs() < 1e-9, "{method:?} from theta {theta0}: onset {onset} against {expected}");
+        }
+    }
+}

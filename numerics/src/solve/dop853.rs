@@ -663,6 +663,22 @@ impl<F: Rhs> Dop853<F> {
         Some(bound)
     }
 
+    /// A bound on `|y_(offset + j)(t)|` over the last step for each `j` in
+    /// `0..out.len()`, into `out` ([`Self::dense_dot_bound`] with a unit
+    /// row each); `false` before the dense output is ready.
+    pub fn dense_component_bounds(&self, offset: usize, out: &mut [f64]) -> bool {
+        let mut unit = vec![0.0; out.len()];
+        for j in 0..out.len() {
+            unit[j] = 1.0;
+            match self.dense_dot_bound(&unit, offset) {
+                Some(b) => out[j] = b,
+                None => return false,
+            }
+            unit[j] = 0.0;
+        }
+        true
+    }
+
     /// `sum_i w_i y_i(t)` from the dense output, over the first `w.len()`
     /// components (a scalar event function without the full state).
     pub fn dense_dot(&mut self, t: f64, w: &[f64]) -> f64 {

@@ -869,16 +869,25 @@ impl<R: ModalRhs> Exponential<R> {
     /// (length `m`): each mode's speed `sqrt(omega^2 p^2 + p'^2)` (its
     /// free oscillation's largest), the larger at the step's two ends,
     /// weighted by `|w . Phi_k|`, with half again for what the remainder
-    /// changes inside the step. `None` before a step.
-    pub fn speed_bound(&self, w: &[f64]) -> Option<f64> {
+    /// changes inside the step. Also a bound on each coordinate's rate
+    /// `|z_j'|` into `rates` (length `m`): the same speeds weighted by
+    /// `|Phi_jk|`, half again. One pass over `Phi`; `None` before a step.
+    pub fn speed_bound_with_rates(&self, w: &[f64], rates: &mut [f64]) -> Option<f64> {
         let (_, _, q0, _) = self.last.as_ref()?;
         let m = self.modes.len();
+        rates.iter_mut().for_each(|x| *x = 0.0);
         let mut bound = 0.0;
-        for k in 0..m {
-            let weight: f64 = (0..m).map(|j| w[j] * self.modes.phi[(j, k)]).sum();
+        let (w, rates) = (&w[..m], &mut rates[..m]);
+        for (k, column) in self.modes.phi.as_slice().chunks_exact(m).enumerate() {
+            let weight: f64 = w.iter().zip(column).map(|(a, b)| a * b).sum();
             let speed = |q: &[f64]| (self.modes.omega2[k] * q[k] * q[k] + q[m + k] * q[m + k]).sqrt();
-            bound += weight.abs() * speed(q0).max(speed(&self.q));
+            let s = speed(q0).max(speed(&self.q));
+            bound += weight.abs() * s;
+            for (r, phi) in rates.iter_mut().zip(column) {
+                *r += phi.abs() * s;
+            }
         }
+        rates.iter_mut().for_each(|x| *x *= 1.5);
         Some(1.5 * bound)
     }
 

@@ -760,6 +760,35 @@ impl RotatingBeam {
         plane.normal[0] * v[0] + plane.normal[1] * v[1]
     }
 
+    /// [`Self::contact_generalized_force`] for a unit force (the
+    /// penetration's gradient), and how fast its entries can change as the
+    /// hub turns, per radian: the plane's normal turns in the floating
+    /// frame, so each entry is a sinusoid of `theta` whose amplitude is the
+    /// length of its two components (the hub's: the tip's distance from the
+    /// axis; a mode's: its tip slope term and its tip deflection). Over a
+    /// step that turns the hub by up to `dtheta` the gradient moves by up
+    /// to `dtheta` times these (to first order in the deflection's change).
+    /// One product with `C_L`.
+    pub fn contact_gradient_and_turn(&self, z: &DVector<f64>, plane: &Plane) -> (DVector<f64>, DVector<f64>) {
+        self.check(z);
+        let n = self.n_modes();
+        let b = &z.as_slice()[1..];
+        let mut cb = vec![0.0; n];
+        mat_vec(self.c_tip.as_slice(), b, &mut cb);
+        let (x, y) = (self.params.hub_radius + self.params.length - 0.5 * dot(b, &cb), self.w.dot(&self.b(z)));
+        let (sn, cs) = z[0].sin_cos();
+        let [nx, ny] = plane.normal;
+        let (lx, ly) = (cs * nx + sn * ny, -sn * nx + cs * ny);
+        let (mut gradient, mut turn) = (DVector::zeros(n + 1), DVector::zeros(n + 1));
+        gradient[0] = -y * lx + x * ly;
+        turn[0] = x.hypot(y);
+        for i in 0..n {
+            gradient[i + 1] = cb[i] * -lx + self.w[i] * ly;
+            turn[i + 1] = cb[i].hypot(self.w[i]);
+        }
+        (gradient, turn)
+    }
+
     /// `Q_c = F (d r_tip / dz)^T n = F d g_n / dz` for a normal force `F`
     /// (positive: pushes the tip to the free side).
     pub fn contact_generalized_force(&self, z: &DVector<f64>, plane: &Plane, force: f64) -> DVector<f64> {

@@ -63,6 +63,16 @@ impl<T: Copy + Default> Recent<T> {
     }
 }
 
+/// `len` entries of room: on the stack up to its length, else on the heap.
+fn room<'a>(stack: &'a mut [f64], heap: &'a mut Vec<f64>, len: usize) -> &'a mut [f64] {
+    if len <= stack.len() {
+        &mut stack[..len]
+    } else {
+        heap.resize(len, 0.0);
+        &mut heap[..]
+    }
+}
+
 /// A located switch: its time, the watch whose zero it is, and the slope
 /// of the chord that bracketed it.
 pub type Switch = (f64, Watch, f64);
@@ -235,20 +245,36 @@ impl<'a> StepCurve<'a> {
 
     /// For a step of the exponential integrator or DOP853 in free flight: a bound
     /// on `|d gap / dt|` over it (the modes' speeds along the gap's
-    /// gradient at the step's start, the hub's for a prescribed one). A
-    /// step that the gap cannot close in is not sampled.
+    /// gradient at the step's start, the hub's for a prescribed one), and
+    /// what the gradient's turn with the hub adds: the plane's normal turns
+    /// in the beam's frame, so over a step that turns the hub by up to
+    /// `dtheta` each entry of the gradient moves by up to `dtheta` times
+    /// its amplitude
+    /// ([`crate::structure::rotating::RotatingBeam::contact_gradient_and_turn`]), times that
+    /// coordinate's largest rate. A step that the gap cannot close in is
+    /// not sampled.
     fn gap_speed_bound(&self) -> Option<f64> {
         let surface = self.phase.model.surface.as_ref()?;
         if self.phase.contact != Contact::Open {
             return None;
         }
         let (z, zd) = self.phase.coords(self.t0, self.y0);
-        let gradient = self.phase.model.beam.contact_generalized_force(&z, &surface.plane, 1.0);
+        let (gradient, turn) = self.phase.model.beam.contact_gradient_and_turn(&z, &surface.plane);
+        let h = self.t1 - self.t0;
+        let (mut stack, mut heap) = ([0.0; 72], Vec::new());
         match self.phase.model.prescribed() {
-            None => self.solver.speed_bound(gradient.as_slice()),
+            None => {
+                let rates = room(&mut stack, &mut heap, gradient.len());
+                let along = self.solver.speed_bounds(gradient.as_slice(), rates)?;
+                let dtheta = h * rates[0];
+                Some(along + dtheta * turn.iter().zip(rates.iter()).map(|(a, r)| a * r).sum::<f64>())
+            }
             Some(p) => {
-                let hub = gradient[0].abs() * zd[0].abs().max(p.speed_bound(self.t0, self.t1));
-                self.solver.speed_bound(&gradient.as_slice()[1..]).map(|b| b + 1.5 * hub)
+                let speed = zd[0].abs().max(p.speed_bound(self.t0, self.t1));
+                let rates = room(&mut stack, &mut heap, gradient.len() - 1);
+                let along = self.solver.speed_bounds(&gradient.as_slice()[1..], rates)? + 1.5 * (gradient[0].abs() * speed);
+                let dtheta = h * speed;
+                Some(along + dtheta * (turn[0] * speed + turn.iter().skip(1).zip(rates.iter()).map(|(a, r)| a * r).sum::<f64>()))
             }
         }
     }

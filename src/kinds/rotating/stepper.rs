@@ -316,15 +316,23 @@ impl Stepper {
         }
     }
 
-    /// A bound on the rate of `w . z` over the last step (the
+    /// A bound on the rate of `w . z` over the last step, and one on each
+    /// of the first `rates.len()` coordinates' rates into `rates` (the
     /// exponential integrator's and DOP853's; `None` for Radau).
-    pub fn speed_bound(&self, w: &[f64]) -> Option<f64> {
+    pub fn speed_bounds(&self, w: &[f64], rates: &mut [f64]) -> Option<f64> {
         match self {
-            Stepper::Exponential(s) => s.speed_bound(w),
+            Stepper::Exponential(s) => s.speed_bound_with_rates(w, rates),
             // The velocities follow the coordinates `w` weighs; half again
             // for the weights' change along the step (the caller's `w` is
-            // the gap's gradient at the step's start).
-            Stepper::Dop853(s) => s.dense_dot_bound(w, w.len()).map(|b| 1.5 * b),
+            // the gap's gradient at the step's start) and for the rates.
+            Stepper::Dop853(s) => {
+                let along = s.dense_dot_bound(w, w.len())?;
+                if !s.dense_component_bounds(w.len(), rates) {
+                    return None;
+                }
+                rates.iter_mut().for_each(|x| *x *= 1.5);
+                Some(1.5 * along)
+            }
             Stepper::Radau(_) => None,
         }
     }
