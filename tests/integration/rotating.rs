@@ -1381,3 +1381,37 @@ fn v_a_step_turning_the_hub_far_still_finds_the_surface() {
         }
     }
 }
+
+/// (w) A contact whose force vanishes still ends where the tip leaves the
+/// surface. A Hertz law of K = 1e-30 N/m^1.5 pushes with at most 1e-30 N:
+/// the undeformed beam spinning at 2 rad/s turns rigidly into the solid
+/// (theta = 2 pi) and out on the far side (theta = 3 pi, the tip at the
+/// line's other crossing). Nothing but the hub's turn held the exponential
+/// integrator's step there: it turned through the solid and out in one
+/// step, the contact never ended (7 steps to 3.5 s), and the state was
+/// refused on restore ('Pressed with penetration -0.995').
+#[test]
+fn w_a_vanishing_force_still_ends_at_the_tip_s_exit() {
+    use beamstop::kinds::rotating::stepper::Method;
+    for method in [Method::Exponential, Method::Dop853] {
+        let mut spec = scene("rotating_beam");
+        spec.solver.method = method;
+        spec.initial.theta = 3.3629;
+        if let Some(surface) = spec.surface.as_mut() {
+            match &mut surface.law {
+                Law::Hertz(h) => h.stiffness = 1e-30,
+                other => panic!("the scene's law is Hertz, not {other:?}"),
+            }
+        }
+        let mut sim = RotatingSimulation::new(Arc::new(RotatingModel::new(&spec).unwrap()), 0.0).unwrap();
+        let (enter, leave) = ((TAU - 3.3629) / 2.0, (1.5 * TAU - 3.3629) / 2.0);
+        sim.advance_to(leave + 0.01).unwrap();
+        let events = sim.drain_events();
+        let at = |kind: fn(&RotatingEventKind) -> bool| events.iter().find(|e| kind(&e.kind)).map(|e| e.time);
+        let onset = at(|k| matches!(k, RotatingEventKind::Onset { .. }));
+        let separation = at(|k| matches!(k, RotatingEventKind::Separation { .. }));
+        eprintln!("(w) {method:?}: onset {onset:?} (rigid rotation {enter}), separation {separation:?} ({leave})");
+        assert!(onset.is_some_and(|t| (t - enter).abs() < 1e-9), "{method:?}: onset {onset:?} against {enter}");
+        assert!(separation.is_some_and(|t| (t - leave).abs() < 1e-9), "{method:?}: separation {separation:?} against {leave}");
+    }
+}

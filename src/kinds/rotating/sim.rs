@@ -167,6 +167,11 @@ pub use crate::solve::REANCHOR_AFTER;
 /// switch.
 const RELEASE_SHARE: f64 = 0.75;
 
+/// The largest turn of the hub in one step ([`RotatingSimulation::turn_cap`]):
+/// an eighth of a turn, a thirty-second between the switch locator's
+/// samples.
+const MAX_TURN: f64 = std::f64::consts::FRAC_PI_4;
+
 impl RotatingSimulation {
     /// A run of `spec` from its initial state at `start_time`.
     pub fn from_spec(spec: &RotatingSpec, start_time: f64) -> Result<Self, SimError> {
@@ -352,6 +357,34 @@ impl RotatingSimulation {
         (RELEASE_SHARE * c.penetration / -c.rate).max(floor)
     }
 
+    /// The largest step from `(t, y)` with a surface: one that turns the
+    /// hub by at most [`MAX_TURN`] at its present speed (a prescribed
+    /// hub's: at most its profile's over that time). The switch locator
+    /// samples a step at [`crate::solve::switch::SAMPLES`] points with the
+    /// watched functions' rates, which finds one extremum between two
+    /// samples; the tip's position along the surface's normal is a
+    /// sinusoid of the hub's angle, with one extremum per half turn.
+    /// Where the modes stand still and the contact's force vanishes (a
+    /// soft law, a deep free rotation) nothing else holds the exponential
+    /// integrator's step: the tip turned through a surface of K = 1e-30
+    /// and out again unseen in 7 steps. (The other integrators' steps are
+    /// held below the shortest modal period.)
+    fn turn_cap(&self, t: f64, y: &DVector<f64>) -> f64 {
+        if self.model.surface.is_none() {
+            return f64::INFINITY;
+        }
+        let (_, zd) = self.phase.coords(t, y);
+        let mut speed = zd[0].abs();
+        if let Some(p) = self.model.prescribed() {
+            speed = speed.max(p.speed_bound(t, t + MAX_TURN / speed.max(f64::MIN_POSITIVE)));
+        }
+        if speed > 0.0 {
+            MAX_TURN / speed
+        } else {
+            f64::INFINITY
+        }
+    }
+
     /// A new phase from `(t, y)` in `contact` (the time becomes `t`).
     pub(super) fn restart(&mut self, t: f64, y: DVector<f64>, contact: Contact) -> Result<(), SimError> {
         self.phase.contact = contact;
@@ -386,7 +419,7 @@ impl RotatingSimulation {
         } else {
             y0 = self.solver.y();
         }
-        let cap = self.release_cap(t0, &y0);
+        let cap = self.release_cap(t0, &y0).min(self.turn_cap(t0, &y0));
         let (a, b) = self
             .solver
             .step(&mut self.phase, cap)
