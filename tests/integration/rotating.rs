@@ -1415,3 +1415,29 @@ fn w_a_vanishing_force_still_ends_at_the_tip_s_exit() {
         assert!(separation.is_some_and(|t| (t - leave).abs() < 1e-9), "{method:?}: separation {separation:?} against {leave}");
     }
 }
+
+/// (x) A state whose impulse is zero's rounding below the normal range
+/// restores (the FMI 3.0 fuzzer's run under a subnormal Hertz stiffness
+/// anchored a phase at an impulse of -5e-324, refused as negative); a
+/// negative impulse of normal size is refused, naming it.
+#[test]
+fn x_an_impulse_at_zero_s_rounding_restores() {
+    let model = Arc::new(RotatingModel::new(&scene("rotating_beam")).unwrap());
+    let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    sim.advance_to(1e-5).unwrap();
+    let mut bytes = encode(&sim);
+    // After the header (10 bytes) and nine numbers, the anchor's length
+    // and entries; the impulse is its first entry past the coordinates
+    // and their rates.
+    let dim_at = 10 + 9 * 8;
+    let dim = u32::from_le_bytes(bytes[dim_at..dim_at + 4].try_into().unwrap()) as usize;
+    let impulse_at = dim_at + 4 + 8 * 2 * (model.n_modes() + 1);
+    assert!(dim > 2 * (model.n_modes() + 1));
+    let impulse = f64::from_le_bytes(bytes[impulse_at..impulse_at + 8].try_into().unwrap());
+    assert_eq!(impulse, 0.0, "the scene starts in contact: its anchor's impulse is 0");
+    bytes[impulse_at..impulse_at + 8].copy_from_slice(&(-5e-324f64).to_le_bytes());
+    decode(model.clone(), &bytes).unwrap_or_else(|e| panic!("an impulse of -5e-324 is refused: {e}"));
+    bytes[impulse_at..impulse_at + 8].copy_from_slice(&(-1e-300f64).to_le_bytes());
+    let e = decode(model, &bytes).err().expect("an impulse of -1e-300 is refused");
+    assert!(e.contains("impulse -1e-300 must be >= 0"), "{e}");
+}

@@ -109,9 +109,11 @@ impl RotatingSimulation {
         }
         let x = phase.extras();
         let impulse = anchor[x];
-        if impulse < 0.0 || impulse_at_start > impulse * (1.0 + 1e-12) + f64::MIN_POSITIVE {
+        // Zero's rounding below the normal range (a force of a subnormal
+        // stiffness integrated) is zero.
+        if impulse < -f64::MIN_POSITIVE || impulse_at_start > impulse * (1.0 + 1e-12) + f64::MIN_POSITIVE {
             return Err(bad(format!(
-                "rotating state: impulse {impulse} must be >= 0 and >= the impulse at the contact's start, {impulse_at_start}"
+                "rotating state: impulse {impulse:e} must be >= 0 and >= the impulse at the contact's start, {impulse_at_start:e}"
             )));
         }
         if onsets == 0 && contact != Contact::Open {
