@@ -7,8 +7,9 @@ corrupted serialized states, through ctypes on the FMU's shared library.
 in CI). `--fmi 3` fuzzes an FMI 3.0 FMU (target/fmu3/*.fmu) through its
 fmi3 functions instead: tests/python/fuzz_fmi3.py, which shares this
 file's helpers. Each run prints a JSON summary: calls made, corrupted states tried,
-the longest single call, and every broken promise with the seed and call
-index that reproduce it. Parameter and input values are drawn over the whole
+the longest single call, every broken promise with the seed and call
+index that reproduce it, and the calls before the first (with the values
+set). Parameter and input values are drawn over the whole
 admitted range too (`admitted_value`: the ends, the start value, log-uniform
 magnitudes inside wide ranges, uniform). Promises checked after every call:
 
@@ -134,6 +135,8 @@ class Harness:
         self.states_tried = 0
         self.longest = (0.0, "")
         self.broken: list[str] = []
+        self.recent: collections.deque[str] = collections.deque(maxlen=60)  # the latest calls, for reports
+        self.first_trace: list[str] = []  # the calls up to the first broken promise
         self.log_all = False  # whether the instance logs the category logAll
         self.twin = None  # a second instance, for states restored across instances
         ex = self.md.defaultExperiment
@@ -192,10 +195,13 @@ class Harness:
 
     # ---------------------------------------------------------------- calls
     def call(self, what: str, f, *args):
+        if self.broken and not self.first_trace:
+            self.first_trace = list(self.recent)
         t0 = time.perf_counter()
         r = f(*args)
         dt = time.perf_counter() - t0
         self.calls += 1
+        self.recent.append(f"{self.calls}: {what} -> {r}")
         if dt > self.longest[0]:
             self.longest = (dt, what)
         if dt > LIMIT:
@@ -314,7 +320,7 @@ class Harness:
             vars_ = [rng.choice(self.settable) for _ in range(n)]
             vrs = [self.vr(self.settable) if rng.random() < 0.2 else v.valueReference for v in vars_]
             vals = [self.value(v) for v in vars_]
-            r = self.call("fmi2SetReal", L.fmi2SetReal, c, (c_uint * n)(*vrs), n, (c_double * n)(*vals))
+            r = self.call(f"fmi2SetReal {vrs}={vals}", L.fmi2SetReal, c, (c_uint * n)(*vrs), n, (c_double * n)(*vals))
             if r == ERROR and self.state == STEP_COMPLETE:
                 self.check_outputs(f"refused fmi2SetReal {vrs}={vals}")
             elif r == OK:
@@ -567,7 +573,7 @@ class Harness:
         return {"fmu": self.md.coSimulation.modelIdentifier, "seed": self.seed, "calls": self.calls,
                 "states": self.states_tried, "longest_s": self.longest[0], "longest_call": self.longest[1],
                 "counts": dict(self.counts), "work_line_required": self.work_required,
-                "broken": self.broken[:20], "n_broken": len(self.broken)}
+                "broken": self.broken[:20], "n_broken": len(self.broken), "first_trace": self.first_trace}
 
 
 def main():
