@@ -390,6 +390,11 @@ pub unsafe extern "C" fn fmi3DeserializeFMUState(instance: fmi3Instance, seriali
             return Err(null_argument(&i.core, f, "FMUState"));
         }
         let snapshot = deserialize(&i.core, bytes).map_err(|m| fail(i, format!("{}: {m}", f.name())))?;
+        // FMI 2.0's state after fmi2CancelStep: no FMI 3.0 instance is ever
+        // in it, and one restored into it could call nothing.
+        if snapshot.machine == beamstop::fmi::ModelState::StepCanceled {
+            return Err(fail(i, format!("{}: serialized state: instance state StepCanceled is FMI 2.0's (fmi2CancelStep); an FMI 3.0 instance is never in it", f.name())));
+        }
         i.core.states.hand_out(FMUState, snapshot).map_err(|m| fail(i, format!("{}: {m}", f.name())))
     })
 }

@@ -144,6 +144,43 @@ def test_a_change_that_fails_at_an_early_return_leaves_a_plain_error_state():
     s.freeInstance()
 
 
+def test_an_fmi3_instance_refuses_fmi2_s_step_canceled_state():
+    """StepCanceled is FMI 2.0's state after fmi2CancelStep. A serialized
+    state claiming it was restored into an FMI 3.0 instance, which then
+    refused every call, even a restore of a true state (the FMI 3.0
+    fuzzer, RotatingBeamImpact seed 9106): it is refused, and the instance
+    steps on."""
+    import struct
+
+    fmu = str(FMU3_DIR / "PinnedBeamStop.fmu")
+    md = read_model_description(fmu)
+    messages = []
+
+    @fmi3LogMessageCallback
+    def log(env, status, category, message):
+        messages.append(message.decode())
+
+    s = FMU3Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="canceled")
+    s.instantiate(logMessage=log)
+    s.enterInitializationMode(startTime=0.0)
+    s.exitInitializationMode()
+    s.doStep(0.0, 0.1)
+    state = s.getFMUState()
+    blob = bytearray(s.serializeFMUState(state))
+    s.freeFMUState(state)
+    # Magic (8 bytes), format version (4), the token's length (4) and the
+    # token, then the instance state's code.
+    at = 16 + struct.unpack_from("<I", blob, 12)[0]
+    assert struct.unpack_from("<I", blob, at)[0] == 4, "saved in step mode"
+    struct.pack_into("<I", blob, at, 16)
+    with pytest.raises(FMICallException):
+        s.deserializeFMUState(bytes(blob))
+    assert "StepCanceled is FMI 2.0's" in messages[-1], messages[-1]
+    s.doStep(0.1, 0.1)
+    s.freeInstance()
+
+
 @pytest.mark.parametrize("name", ["PinnedBeamStop", "SpinUpBeam", "RotatingBeamImpact", "HertzStop"])
 def test_a_start_time_the_clock_cannot_resolve_is_refused_at_once(name):
     """1e300 (FMI 3.0's fmi3EnterInitializationMode) and 1e308 (FMI 2.0's
