@@ -291,14 +291,22 @@ impl<'a> StepCurve<'a> {
         while t < self.t1 {
             let gap = -self.point(t).penetration;
             if gap > 0.0 && gap > 0.25 * window * speed {
-                t = (t + gap / speed).min(self.t1);
-                if t >= self.t1 {
+                let next = (t + gap / speed).min(self.t1);
+                if next >= self.t1 {
                     // The gap cannot close before the step's end.
                     break;
                 }
-                continue;
+                // (An advance below the time's resolution there would
+                // stand still: the window's search moves on instead.)
+                if next > t {
+                    t = next;
+                    continue;
+                }
             }
+            // A window below the time's resolution (a state from outside
+            // at a late time) would stand still: the rest of the step.
             let b = (t + window).min(self.t1);
+            let b = if b > t { b } else { self.t1 };
             if let Some(located) = first_switch(self, t, b, t) {
                 return Some(located);
             }
