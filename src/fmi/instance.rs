@@ -599,16 +599,18 @@ impl Instance {
     }
 
     /// Whether this instance can continue from a state: one saved in event
-    /// mode or with an event's change pending needs event mode.
+    /// mode needs event mode. A state saved in step mode with an event's
+    /// change pending (the importer stepped on without event mode) is
+    /// admitted by any instance: its next step makes the change first, as
+    /// the saving instance's would.
     pub fn admits(&self, s: &Snapshot) -> Result<(), String> {
-        if self.modes.event_mode_used || !(s.machine == ModelState::EventMode || s.pending) {
+        if self.modes.event_mode_used || s.machine != ModelState::EventMode {
             return Ok(());
         }
-        let saved = if s.machine == ModelState::EventMode { "in event mode" } else { "with an event's change pending" };
         let this = if s.made_with.event_mode_used { "eventModeUsed = true" } else { "no event mode" };
         Err(format!(
-            "the state was saved {saved} by an instance made with {this}; this instance has no event mode (FMI 2.0, or FMI 3.0 \
-             instantiated with eventModeUsed = false) and cannot make that change: save states in step mode, or instantiate with eventModeUsed = true"
+            "the state was saved in event mode by an instance made with {this}; this instance has no event mode (FMI 2.0, or FMI 3.0 \
+             instantiated with eventModeUsed = false) and cannot continue from it: save states in step mode, or instantiate with eventModeUsed = true"
         ))
     }
 

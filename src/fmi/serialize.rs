@@ -49,8 +49,8 @@ pub fn serialize(s: &Snapshot) -> Vec<u8> {
 
 /// Reads a state written by [`serialize`] for this instance and checks it
 /// as strictly as a state reached by set calls: a machine state that may
-/// be restored (event mode and a pending event only where the instance
-/// has event mode: [`Instance::admits`]), finite times, parameters and
+/// be restored (event mode only where the instance has event mode:
+/// [`Instance::admits`]), finite times, parameters and
 /// inputs within their ranges, and a simulation state the model can be in.
 pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String> {
     let mut r = Reader::new(bytes);
@@ -95,8 +95,8 @@ pub fn deserialize(instance: &Instance, bytes: &[u8]) -> Result<Snapshot, String
     if matches!(machine, ModelState::Error | ModelState::Fatal) {
         return Err(format!("serialized state: instance state {machine:?} cannot be restored"));
     }
-    if (machine == ModelState::EventMode || pending) && !made_with.event_mode_used {
-        return Err("serialized state: in event mode or with an event pending, saved by an instance without event mode".into());
+    if machine == ModelState::EventMode && !made_with.event_mode_used {
+        return Err("serialized state: in event mode, saved by an instance without event mode".into());
     }
     if pending && !matches!(machine, ModelState::StepMode | ModelState::EventMode) {
         return Err(format!("serialized state: an event pending in instance state {machine:?}"));

@@ -109,6 +109,44 @@ def test_a_state_saved_in_event_mode_is_refused_by_an_instance_without_it():
         s.freeInstance()
 
 
+def test_a_state_with_an_event_pending_in_step_mode_restores_without_event_mode():
+    """A state saved in step mode after an early return at an impact, the
+    importer not having entered event mode (the change still pending),
+    restores into an instance made without event mode: its next step makes
+    the change first, as the saving instance's does, bit for bit (the FMI
+    3.0 fuzzer, RotatingBeamImpact seed 9107, found it refused)."""
+    fmu = str(FMU3_DIR / "PinnedBeamStop.fmu")
+    md = read_model_description(fmu)
+    here = extract(fmu)
+    vrs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
+
+    def unit(name, event_mode):
+        s = FMU3Slave(guid=md.guid, unzipDirectory=here, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        s.instantiate(eventModeUsed=event_mode, earlyReturnAllowed=event_mode)
+        s.enterInitializationMode(startTime=0.0)
+        s.exitInitializationMode()
+        if event_mode:
+            s.updateDiscreteStates()
+            s.enterStepMode()
+        return s
+
+    saver = unit("saver", True)
+    event, _, early, at = saver.doStep(0.0, 100.0)
+    assert event and early
+    blob = saver.serializeFMUState(saver.getFMUState())
+    other = unit("other", False)
+    other.setFMUState(other.deserializeFMUState(blob))
+    assert other.getFloat64(vrs) == saver.getFloat64(vrs), "the values before the impact"
+    assert saver.doStep(at, 1e-3)[:3] == (False, False, False), "no event in the step"
+    other.doStep(at, 1e-3)
+    assert [x.hex() for x in other.getFloat64(vrs)] == [x.hex() for x in saver.getFloat64(vrs)]
+    # and the state the restored instance writes restores again
+    again = unit("again", False)
+    again.setFMUState(again.deserializeFMUState(other.serializeFMUState(other.getFMUState())))
+    for s in (saver, other, again):
+        s.freeInstance()
+
+
 def test_a_change_that_fails_at_an_early_return_leaves_a_plain_error_state():
     """Without event mode the FMU makes an early return's discrete change
     itself. HertzStop started at t = 1e6 with mode 15 at 41,665 m/s (inside
