@@ -1441,3 +1441,33 @@ fn x_an_impulse_at_zero_s_rounding_restores() {
     let e = decode(model, &bytes).err().expect("an impulse of -1e-300 is refused");
     assert!(e.contains("impulse -1e-300 must be >= 0"), "{e}");
 }
+
+/// (y) A beam at rest on the surface (TappingArm with its hub still at
+/// theta = 0, the tip touching the plane) searches no window of the
+/// shortest modal period one by one: the gap cannot move by more than its
+/// rounding. Before, each of its steps (tens of seconds long) was
+/// searched period by period: a restore of a state at t = 2052 s replayed
+/// for 45 s (the FMI 3.0 fuzzer, TappingArm seed 9106).
+#[test]
+fn y_a_beam_at_rest_on_the_surface_is_not_searched_period_by_period() {
+    let mut spec = scene("tapping_arm");
+    spec.initial.theta = 0.0;
+    spec.hub = HubDrive::Prescribed(Profile::Harmonic { amplitude: 0.0, omega: 12.0 });
+    spec.solver.tolerance = 1e-13;
+    let model = Arc::new(RotatingModel::new(&spec).unwrap());
+    let mut sim = RotatingSimulation::new(model.clone(), 0.0).unwrap();
+    sim.advance_to(2052.0).unwrap();
+    let stats = sim.stats();
+    eprintln!("(y) {stats:?}");
+    assert_eq!(stats.events, 0);
+    assert!(stats.switch_windows <= stats.accepted, "{} windows searched in {} steps", stats.switch_windows, stats.accepted);
+    // Its state restores (the replay from t = 0 as short).
+    let restored = decode(model, &encode(&sim)).unwrap();
+    assert_eq!(restored.stats().switch_windows, stats.switch_windows);
+    // The hub swinging, the beam near the surface is searched window by
+    // window as before.
+    let mut moving = RotatingSimulation::new(Arc::new(RotatingModel::new(&scene("tapping_arm")).unwrap()), 0.0).unwrap();
+    moving.advance_to(0.2).unwrap();
+    eprintln!("(y) swinging: {:?}", moving.stats());
+    assert!(moving.stats().switch_windows > 0, "{:?}", moving.stats());
+}

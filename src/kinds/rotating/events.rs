@@ -7,7 +7,7 @@
 //! leaves again between two samples is found. Also the largest force of a
 //! push inside the step.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 use nalgebra::DVector;
 
@@ -32,6 +32,8 @@ pub struct StepCurve<'a> {
     /// start.
     points: RefCell<Recent<ContactPoint>>,
     rates: RefCell<Recent<f64>>,
+    /// Windows the conservative advancement searched (its work).
+    windows: Cell<u64>,
 }
 
 /// The room a step's curve works in, kept across steps by the simulation
@@ -96,6 +98,7 @@ impl<'a> StepCurve<'a> {
             buffers: &room.0,
             points: RefCell::new(Recent::new()),
             rates: RefCell::new(Recent::new()),
+            windows: Cell::new(0),
         }
     }
 
@@ -233,6 +236,12 @@ impl<'a> StepCurve<'a> {
         self.phase.model.beam.contact_generalized_force(&z, &s.plane, 1.0).dot(&zdot)
     }
 
+    /// The windows the first switch's search searched one by one (see
+    /// [`Self::first_switch_advancing`]).
+    pub fn windows(&self) -> u64 {
+        self.windows.get()
+    }
+
     /// The first switch in the step, or `None`.
     pub fn first_switch(&self) -> Option<Switch> {
         let located = match self.gap_speed_bound() {
@@ -283,10 +292,14 @@ impl<'a> StepCurve<'a> {
     /// gap cannot close before `gap / speed`; where that is shorter than
     /// a quarter of the shortest modal period, the shared locator searches
     /// the next period's window (samples, interior minima), and the
-    /// advancement resumes after it. No zero is passed while `speed`
-    /// bounds the gap's rate.
+    /// advancement resumes after it; where the gap cannot move by more
+    /// than its rounding before the step's end, the rest of the step is
+    /// one window. No zero is passed while `speed` bounds the gap's rate.
     fn first_switch_advancing(&self, speed: f64) -> Option<crate::solve::switch::Located> {
         let window = self.phase.model.shortest_period();
+        // The gap's rounding: a few units in the last place of the tip's
+        // distance from the axis.
+        let still = 4.0 * f64::EPSILON * self.phase.model.tip_radius();
         let mut t = self.t0;
         while t < self.t1 {
             let gap = -self.point(t).penetration;
@@ -304,9 +317,13 @@ impl<'a> StepCurve<'a> {
                 }
             }
             // A window below the time's resolution (a state from outside
-            // at a late time) would stand still: the rest of the step.
+            // at a late time) would stand still, and where the gap cannot
+            // move by more than its rounding before the step's end (a beam
+            // at rest on the surface) windows find nothing samples of the
+            // whole rest miss: the rest of the step.
             let b = (t + window).min(self.t1);
-            let b = if b > t { b } else { self.t1 };
+            let b = if b > t && speed * (self.t1 - t) > still { b } else { self.t1 };
+            self.windows.set(self.windows.get() + 1);
             if let Some(located) = first_switch(self, t, b, t) {
                 return Some(located);
             }

@@ -107,6 +107,9 @@ pub struct RotatingStats {
     pub contact_steps: u64,
     pub restarts: u64,
     pub events: u64,
+    /// Windows of the shortest modal period the switch search searched
+    /// one by one in free flight near the surface ([`super::events`]).
+    pub switch_windows: u64,
 }
 
 /// The last accepted step: `[t0, t1]`, the state at `t0`, its first
@@ -435,6 +438,7 @@ impl RotatingSimulation {
         }
         let curve = StepCurve::new(&self.phase, &self.solver, a, b, &y0, &self.curve_room);
         let switch = curve.first_switch();
+        self.stats.switch_windows += curve.windows();
         let mut peak = curve.peak_force(switch.map_or(b, |s| s.0));
         if let Some((tp, _)) = peak {
             // The peak's value from the full-order state there (not the
