@@ -1471,3 +1471,27 @@ fn y_a_beam_at_rest_on_the_surface_is_not_searched_period_by_period() {
     eprintln!("(y) swinging: {:?}", moving.stats());
     assert!(moving.stats().switch_windows > 0, "{:?}", moving.stats());
 }
+
+/// (z) A start a subnormal angle inside the surface, approaching at the
+/// greatest admitted speed: the Hertz force rounds to zero there, and the
+/// run started penetrated (force-free) until a push resumed 6.3 ns later,
+/// booking that push's spring energy as negative dissipation (-6.8e-7 J;
+/// the FMI 3.0 fuzzer, RotatingBeamImpact seed 9107). It starts pressed:
+/// no push resumes, and the dissipated energy never falls below zero.
+#[test]
+fn z_a_subnormal_start_inside_the_surface_is_a_push() {
+    let mut spec = scene("rotating_beam");
+    spec.initial.theta = 5e-324;
+    spec.initial.theta_dot = spec.speed_range().max;
+    let mut sim = RotatingSimulation::new(Arc::new(RotatingModel::new(&spec).unwrap()), 0.0).unwrap();
+    let mut lowest = f64::INFINITY;
+    for t in (1..=20).map(|k| 1e-9 * k as f64).chain((1..=100).map(|k| 1e-6 * k as f64)) {
+        sim.advance_to(t).unwrap();
+        lowest = lowest.min(sim.dissipated_energy());
+    }
+    let events = sim.drain_events();
+    eprintln!("(z) {events:?}; least dissipated energy {lowest:e} J");
+    assert!(!events.iter().any(|e| matches!(e.kind, RotatingEventKind::PushResumed)), "{events:?}");
+    assert!(events.iter().any(|e| matches!(e.kind, RotatingEventKind::Separation { .. })), "{events:?}");
+    assert!(lowest >= 0.0, "dissipated energy {lowest:e} J");
+}

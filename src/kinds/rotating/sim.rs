@@ -239,7 +239,12 @@ impl RotatingSimulation {
             if c.penetration > 0.0 || (c.penetration == 0.0 && c.rate > 0.0) {
                 sim.phase.onset_speed = c.rate.max(0.0);
                 let raw = s.law.raw_force(c.penetration, c.rate, sim.phase.onset_speed).0;
-                contact = if raw > 0.0 || c.penetration == 0.0 { Contact::Pressed } else { Contact::Penetrated };
+                // Penetrated only where the law would pull: a force that
+                // rounds to zero (a subnormal penetration) is a push
+                // starting, and a force-free penetrated start would book
+                // the spring energy at its resumption as negative
+                // dissipation.
+                contact = if raw >= 0.0 { Contact::Pressed } else { Contact::Penetrated };
                 sim.onsets = 1;
                 sim.events.push(RotatingEvent { time: start_time, kind: RotatingEventKind::Onset { speed: c.rate } });
             }
