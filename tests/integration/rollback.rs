@@ -155,6 +155,28 @@ fn an_input_that_pulls_a_stuck_beam_off_releases_it_when_set() {
 }
 
 #[test]
+fn a_load_that_pulls_a_stuck_beam_off_beside_a_pressed_hertz_stop_releases_it_when_set() {
+    // RigidAndHertzStops is stuck to 'rigid' from t = 0.76 with 'soft'
+    // pressed (an integrated phase). Reversing the load at t = 1.1 makes
+    // the reaction pull (442 N): the run must release the stop there, not
+    // keep it stuck and write a state it refuses (the FMI 2.0 fuzzer, seed
+    // 9103). A reversal too small to pull keeps it stuck.
+    for (amplitude, released) in [(-2586.5905506307354, true), (76.8 * 1.5, false)] {
+        let mut scene = component("rigid_and_hertz");
+        let mut run = scene.start(0.0, &[]).unwrap();
+        run.advance_to(1.1).unwrap();
+        assert_eq!(output(&scene, run.as_ref(), "rigid.sticking"), Value::Boolean(true), "stuck at t = 1.1");
+        assert!(matches!(output(&scene, run.as_ref(), "soft.force"), Value::Real(f) if f > 0.0), "'soft' pressed at t = 1.1");
+        let k = scene.parameters().iter().position(|p| p.name == "load.amplitude").unwrap();
+        scene.set(k, amplitude);
+        scene.retune(run.as_mut()).unwrap();
+        assert_eq!(output(&scene, run.as_ref(), "rigid.sticking"), Value::Boolean(!released), "load.amplitude = {amplitude}");
+        let mut restored = restores(&scene, &[], run.as_ref(), &format!("load.amplitude = {amplitude} at t = 1.1"));
+        same_after(&scene, run.as_mut(), restored.as_mut(), 1.3, &format!("load.amplitude = {amplitude}"));
+    }
+}
+
+#[test]
 fn a_damped_spring_stop_stepped_from_event_to_event_restores_every_state() {
     // SpringStopSoft with stop.c = 1, early return and event mode: 16 of
     // 10,145 states refused ("departing flag 1 set ...", t = 0.0825).

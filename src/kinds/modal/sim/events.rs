@@ -130,7 +130,7 @@ impl Simulation {
     /// to the phase's search, the hold was released one sample later at
     /// loose tolerances, and at 1e-12 to 1e-14 the collocation of a
     /// pulling hold failed ("step fell to 3e-16 s").
-    fn release_pulled_holds(&mut self, t: f64) -> Result<(), SimError> {
+    pub(super) fn release_pulled_holds(&mut self, t: f64) -> Result<(), SimError> {
         #[cfg(feature = "power-law")]
         {
             let Segment::Integrated(seg) = &self.segment else { return Ok(()) };

@@ -383,6 +383,10 @@ impl Simulation {
         self.state.scan = self.state.time;
         self.mark_anchor_departing();
         self.rebuild_segment()?;
+        // In an integrated phase (a compliant contact pressed beside the
+        // hold) the search takes a reaction pulling from the phase's start
+        // for no zero: such holds are released here, as at a phase's start.
+        self.release_pulled_holds(self.state.time)?;
         // A stick made at this very time flags its reaction as departing
         // (see `claims`); under the new loads the reaction may pull off
         // the boundary: the flag then no longer holds, and the search
