@@ -1495,3 +1495,49 @@ fn z_a_subnormal_start_inside_the_surface_is_a_push() {
     assert!(events.iter().any(|e| matches!(e.kind, RotatingEventKind::Separation { .. })), "{events:?}");
     assert!(lowest >= 0.0, "dissipated energy {lowest:e} J");
 }
+
+/// (aa) An open tip that a torque set finds a little inside the surface
+/// (the previous step's locator placed the onset just after its end, to
+/// its accuracy) and moving in at 1.3 m/s makes its onset at the set. The
+/// new phase's search, starting on the wrong side of the gap's zero,
+/// placed it 2.1e-8 s late, and the state there (the tip 2.8e-8 m inside
+/// while open) was refused on restore (the FMI 3.0 fuzzer, seed 9105: its
+/// state at the set, written here field by field).
+#[test]
+fn aa_a_torque_set_with_the_tip_just_inside_makes_the_onset_there() {
+    let mut spec = scene("rotating_beam");
+    spec.solver.tolerance = 1e-10;
+    let model = Arc::new(RotatingModel::new(&spec).unwrap());
+    let t = -2.9932232987270635;
+    let anchor = [
+        0.017057257539865468, -0.00790803682373067, 0.00041844492595198487, -0.00014565774282901368, 2.6449624478834102e-05,
+        -2.8358199399722376e-05, 9.512047274048834e-07, 2.7262905930509143, -1.7649527316088207, -0.3920661490787824,
+        0.2688475541774283, -0.14113266823771003, -0.11935528066540853, -0.3738295306512645, 0.6528620636647174,
+        0.07647802580528813, -0.6528483910931727,
+    ];
+    let mut w = Writer(Vec::new());
+    w.u32(2); // the encoding's version
+    w.u32(6);
+    w.u8(0); // torque-driven
+    w.u8(0); // open
+    w.f64(t); // time
+    w.f64(t); // anchor time
+    w.f64(0.0); // torque before the set
+    w.f64(1.1678486427628225); // the last onset's speed
+    w.u64(7); // onsets
+    w.f64(0.6528620636647174); // impulse mark
+    w.f64(1446.4418031312257); // peak force
+    w.f64(-2.993766290254578); // the last contact's start
+    w.f64(0.5821332309377776); // impulse then
+    w.f64s(&anchor);
+    w.f64s(&anchor);
+    let mut sim = decode(model.clone(), &w.0).unwrap();
+    sim.set_torque(119.46674363242508).unwrap();
+    let onsets: Vec<f64> = sim.drain_events().iter().filter(|e| matches!(e.kind, RotatingEventKind::Onset { .. })).map(|e| e.time).collect();
+    assert_eq!(onsets, vec![t], "the onset at the set");
+    for k in 1..=20 {
+        sim.advance_to(t + 1e-8 * k as f64).unwrap();
+        decode(model.clone(), &encode(&sim)).unwrap_or_else(|e| panic!("t + {k}e-8: {e}"));
+    }
+    assert!(sim.drain_events().iter().all(|e| !matches!(e.kind, RotatingEventKind::Onset { .. })), "one onset");
+}
