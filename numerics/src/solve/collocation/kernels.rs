@@ -258,8 +258,8 @@ impl ForceCollocation {
     }
 
     /// Takes the kernel sets of another stepper over the same structure
-    /// (the previous contact phase's, done with them): its step sizes
-    /// recur. Its contacts' responses too where it has the same contacts
+    /// and load frequencies (the previous contact phase's, done with
+    /// them): its step sizes recur. Its contacts' responses too where it has the same contacts
     /// (positions and directions: the gaps do not enter them), and its
     /// samples' where it also watches the same directions. Moved, not
     /// copied: a contact's start then costs no copy of them (HertzStop at
@@ -267,7 +267,10 @@ impl ForceCollocation {
     /// Its working arrays too (the attempts' and the samples'), emptied:
     /// a phase then allocates nothing its predecessor had.
     pub fn adopt_kernels(&mut self, other: &mut ForceCollocation) {
-        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s {
+        // The kernels hold the harmonic loads' rotations to the nodes: a
+        // load's frequency set between the phases makes them stale.
+        let frequencies = |c: &ForceCollocation| c.dynamics.forcing.harmonics.iter().map(|h| h.omega.to_bits()).collect::<Vec<_>>();
+        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s && frequencies(other) == frequencies(self) {
             *self.kernels.get_mut() = std::mem::take(other.kernels.get_mut());
             if other.dd == self.dd {
                 *self.projections.get_mut() = std::mem::take(other.projections.get_mut());
