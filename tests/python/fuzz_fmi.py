@@ -137,6 +137,8 @@ class Harness:
         self.broken: list[str] = []
         self.recent: collections.deque[str] = collections.deque(maxlen=60)  # the latest calls, for reports
         self.first_trace: list[str] = []  # the calls up to the first broken promise
+        self.dump_dir: Path | None = None  # --dump: where the state serialized last goes at each broken promise
+        self.last_state: bytes | None = None
         self.log_all = False  # whether the instance logs the category logAll
         self.twin = None  # a second instance, for states restored across instances
         ex = self.md.defaultExperiment
@@ -258,6 +260,39 @@ class Harness:
 
     def report(self, what: str):
         self.broken.append(f"seed {self.seed} call {self.calls}: {what}")
+        self.dump_state()
+
+    def dump_state(self):
+        """With --dump, to replay a broken promise without the calls before
+        it: the bytes of the state serialized last (the one a restore or a
+        rollback broke on), DIR/seed-S-call-N-last.bin, and of the current
+        state where the instance can save it, DIR/seed-S-call-N-now.bin (no
+        call of the run's own: the run is the same with and without)."""
+        if self.dump_dir is None:
+            return
+        self.dump_dir.mkdir(parents=True, exist_ok=True)
+        stem = self.dump_dir / f"seed-{self.seed}-call-{self.calls}"
+        if self.last_state is not None:
+            stem.with_name(stem.name + "-last.bin").write_bytes(self.last_state)
+        kept = list(self.messages)  # what the instance logs here is not the run's
+        now = self.state_bytes() if self.c is not None else None
+        self.messages.clear()
+        self.messages.extend(kept)
+        if now is not None:
+            stem.with_name(stem.name + "-now.bin").write_bytes(now)
+
+    def state_bytes(self) -> bytes | None:
+        """The current state serialized, or None."""
+        L, c = self.lib, self.c
+        s = c_void_p()
+        if L.fmi2GetFMUstate(c, byref(s)) != OK:
+            return None
+        size = c_size_t()
+        ok = L.fmi2SerializedFMUstateSize(c, s, byref(size)) == OK
+        buf = ctypes.create_string_buffer(size.value)
+        ok = ok and L.fmi2SerializeFMUstate(c, s, buf, size.value) == OK
+        L.fmi2FreeFMUstate(c, byref(s))
+        return bytes(buf.raw) if ok else None
 
     # ---------------------------------------------------------------- checks
     def check_outputs(self, where: str):
@@ -275,11 +310,11 @@ class Harness:
         got = dict(zip(vrs, vals))
         for v in self.outputs:
             if not math.isfinite(got[v.valueReference]):
-                self.broken.append(f"seed {self.seed} call {self.calls}: {v.name} = {got[v.valueReference]} after {where}")
+                self.report(f"{v.name} = {got[v.valueReference]} after {where}")
         for v in self.outputs:
             # Stop forces and impulses push, never pull.
             if v.name.endswith((".force", ".impulse", ".E_stored", ".E_dissipated")) and got[v.valueReference] < -1e-9 * max(1.0, abs(got[v.valueReference])):
-                self.broken.append(f"seed {self.seed} call {self.calls}: {v.name} = {got[v.valueReference]} < 0 after {where}")
+                self.report(f"{v.name} = {got[v.valueReference]} < 0 after {where}")
         for w, gap, side in self.stops:
             g = (c_double * 1)()
             self.lib.fmi2GetReal(self.c, (c_uint * 1)(gap.valueReference), 1, g)
@@ -288,7 +323,7 @@ class Harness:
             # Rounding is relative to the largest displacement the model
             # admits (the gap's declared bound, 1000 structure lengths).
             if penetration > 1e-9 * (abs(g[0]) + abs(y)) + 1e-15 * float(gap.max):
-                self.broken.append(f"seed {self.seed} call {self.calls}: {w.name} = {y} penetrates gap {g[0]} after {where}")
+                self.report(f"{w.name} = {y} penetrates gap {g[0]} after {where}")
 
     # ---------------------------------------------------------------- moves
     def move(self):
@@ -500,7 +535,8 @@ class Harness:
         buf = ctypes.create_string_buffer(size.value)
         L.fmi2SerializeFMUstate(c, s, buf, size.value)
         L.fmi2FreeFMUstate(c, byref(s))
-        return bytes(buf.raw)
+        self.last_state = bytes(buf.raw)
+        return self.last_state
 
     def corrupt(self, data: bytes) -> bytes:
         rng = self.rng
@@ -584,6 +620,7 @@ def main():
     ap.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="the FMI version of the FMU (default 2)")
     ap.add_argument("--work-line", choices=("required", "optional"), default="required" if WORK_LINE_REQUIRED else "optional",
                     help="whether every DoStep that runs must log its work line (logAll)")
+    ap.add_argument("--dump", metavar="DIR", help="write the state serialized last at each broken promise to DIR")
     a = ap.parse_args()
     if a.fmi == 3:
         from fuzz_fmi3 import Harness3
@@ -592,6 +629,7 @@ def main():
     else:
         h = Harness(a.fmu, a.seed)
     h.work_required = a.work_line == "required"
+    h.dump_dir = Path(a.dump) if a.dump else None
     print(json.dumps(h.run(a.calls)))
 
 

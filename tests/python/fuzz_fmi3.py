@@ -226,6 +226,7 @@ class Harness3(Harness):
         if not self.broken:
             self.first_trace = [f"options {self.options}"] + list(self.recent)
         self.broken.append(f"seed {self.seed} call {self.calls}: {what}")
+        self.dump_state()
 
     def call(self, what: str, f, *args):
         r = super().call(what, f, *args)
@@ -813,6 +814,18 @@ class Harness3(Harness):
                 return (f"{x[0]}: status {x[1]} vs {y[1]}, " + ("outputs differ" if x[-1] != y[-1] else f"{x[1:-1]} vs {y[1:-1]}"))
         return f"{len(a)} calls vs {len(b)}"
 
+    def state_bytes(self) -> bytes | None:
+        L, c = self.lib, self.c
+        s = c_void_p()
+        if L.fmi3GetFMUState(c, byref(s)) != OK:
+            return None
+        size = c_size_t()
+        ok = L.fmi3SerializedFMUStateSize(c, s, byref(size)) == OK
+        buf = ctypes.create_string_buffer(size.value)
+        ok = ok and L.fmi3SerializeFMUState(c, s, buf, size.value) == OK
+        L.fmi3FreeFMUState(c, byref(s))
+        return bytes(buf.raw) if ok else None
+
     def serialized(self):
         L, c = self.lib, self.c
         s = c_void_p()
@@ -827,6 +840,8 @@ class Harness3(Harness):
             if self.call("fmi3SerializeFMUState(short)", L.fmi3SerializeFMUState, c, s, buf, size.value - 1) != ERROR:
                 self.report("fmi3SerializeFMUState into a buffer one byte short was not refused")
         L.fmi3FreeFMUState(c, byref(s))
+        if r == OK:
+            self.last_state = bytes(buf.raw)
         return bytes(buf.raw) if r == OK else None
 
     def serialize_round_trip(self):
