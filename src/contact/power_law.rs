@@ -134,7 +134,10 @@ impl ContactLaw for PowerLaw {
     fn initial_contact(&self, p: f64, pd: f64) -> Contact {
         if p <= 0.0 {
             Contact::Open
-        } else if self.raw_force(p, pd, pd.max(0.0)).0 > 0.0 {
+        } else if self.watched_force(p, pd, pd.max(0.0)).0 >= 0.0 {
+            // The push's sign from the watched function: the force itself
+            // rounds to zero at a subnormal penetration (a preload of
+            // 1e-300), where a force-free start would be wrong.
             Contact::Pressed
         } else {
             Contact::Penetrated

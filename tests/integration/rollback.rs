@@ -198,6 +198,22 @@ fn a_load_frequency_set_during_a_hertz_push_restores() {
 }
 
 #[test]
+fn a_hertz_preload_of_rounding_size_starts_pressed_and_restores() {
+    // 'soft' preloaded by 1e-300 (its gap -1e-300): K p^1.5 rounds to zero
+    // there, and the run started penetrated (force-free) though the law
+    // pushes; the state it wrote was refused ("Penetrated, but its
+    // NegatedForce function is -0.544": the FMI 3.0 fuzzer, seed 9102).
+    let scene = with(
+        component("rigid_and_hertz"),
+        &[("soft.gap", -1e-300), ("soft.K", 0.5442806714558757), ("soft.e", 0.0), ("zeta", 1000.0), ("qd0[1]", -1.0), ("qd0[2]", 3515.625)],
+    );
+    let mut run = scene.start(0.0, &[]).unwrap();
+    assert_eq!(output(&scene, run.as_ref(), "soft.contact"), Value::Boolean(true), "pressed at the start");
+    let mut restored = restores(&scene, &[], run.as_ref(), "soft.gap = -1e-300 at t = 0");
+    same_after(&scene, run.as_mut(), restored.as_mut(), 0.01, "soft.gap = -1e-300");
+}
+
+#[test]
 fn a_damped_spring_stop_stepped_from_event_to_event_restores_every_state() {
     // SpringStopSoft with stop.c = 1, early return and event mode: 16 of
     // 10,145 states refused ("departing flag 1 set ...", t = 0.0825).

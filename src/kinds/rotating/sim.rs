@@ -238,13 +238,12 @@ impl RotatingSimulation {
             }
             if c.penetration > 0.0 || (c.penetration == 0.0 && c.rate > 0.0) {
                 sim.phase.onset_speed = c.rate.max(0.0);
-                let raw = s.law.raw_force(c.penetration, c.rate, sim.phase.onset_speed).0;
-                // Penetrated only where the law would pull: a force that
-                // rounds to zero (a subnormal penetration) is a push
-                // starting, and a force-free penetrated start would book
-                // the spring energy at its resumption as negative
-                // dissipation.
-                contact = if raw >= 0.0 { Contact::Pressed } else { Contact::Penetrated };
+                // Penetrated only where the law would pull (its own
+                // decision, robust to a force that rounds to zero at a
+                // subnormal penetration: a force-free start there would
+                // book the spring energy at the push's resumption as
+                // negative dissipation).
+                contact = if c.penetration == 0.0 { Contact::Pressed } else { s.law.initial_contact(c.penetration, c.rate) };
                 sim.onsets = 1;
                 sim.events.push(RotatingEvent { time: start_time, kind: RotatingEventKind::Onset { speed: c.rate } });
             }
