@@ -259,18 +259,20 @@ impl ForceCollocation {
 
     /// Takes the kernel sets of another stepper over the same structure
     /// and load frequencies (the previous contact phase's, done with
-    /// them): its step sizes recur. Its contacts' responses too where it has the same contacts
-    /// (positions and directions: the gaps do not enter them), and its
-    /// samples' where it also watches the same directions. Moved, not
-    /// copied: a contact's start then costs no copy of them (HertzStop at
-    /// 20 modes and tolerance 1e-4: 0.6M of 22M instructions).
+    /// them): its step sizes recur. Its contacts' responses too where it
+    /// has the same contacts (positions and directions: the gaps do not
+    /// enter them), and its samples' where it also watches the same
+    /// directions. Moved, not copied: a contact's start then costs no copy
+    /// of them (HertzStop at 20 modes and tolerance 1e-4: 0.6M of 22M
+    /// instructions).
     /// Its working arrays too (the attempts' and the samples'), emptied:
     /// a phase then allocates nothing its predecessor had.
     pub fn adopt_kernels(&mut self, other: &mut ForceCollocation) {
         // The kernels hold the harmonic loads' rotations to the nodes: a
         // load's frequency set between the phases makes them stale.
-        let frequencies = |c: &ForceCollocation| c.dynamics.forcing.harmonics.iter().map(|h| h.omega.to_bits()).collect::<Vec<_>>();
-        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s && frequencies(other) == frequencies(self) {
+        let (a, b) = (&other.dynamics.forcing.harmonics, &self.dynamics.forcing.harmonics);
+        let same_frequencies = a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.omega.to_bits() == y.omega.to_bits());
+        if other.dynamics.oscillators == self.dynamics.oscillators && other.scheme.s == self.scheme.s && same_frequencies {
             *self.kernels.get_mut() = std::mem::take(other.kernels.get_mut());
             if other.dd == self.dd {
                 *self.projections.get_mut() = std::mem::take(other.projections.get_mut());
