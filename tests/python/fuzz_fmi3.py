@@ -41,7 +41,9 @@ checked after every call, as for FMI 2.0:
   (no event-mode call without eventModeUsed) and, where neither DoStep
   met an event, gives the same outputs bit for bit. It may refuse the state
   (fmi3Error with a message) only if the state was saved in event mode
-  and the instance has no eventModeUsed. Restored
+  and the instance has no eventModeUsed. A step with other flags that
+  fails past the original's early return, its contact's steps below the
+  time's resolution there (late times), is counted, not compared. Restored
   into its own instance (step, restore, step again) the calls repeat bit
   for bit. (The intermediate-update callback asks for every early return
   during these steps, which is what an instance without a callback gets.)
@@ -776,6 +778,11 @@ class Harness3(Harness):
                     if b[1] == DISCARD:
                         # without the original's early returns the step may meet more events: its work cap may end it
                         self.counts["other_flags_discarded"] += 1
+                    elif b[1] == ERROR and a[1] == OK and a[3] and "the resolution of the time there" in self.step_message:
+                        # The original returned early, short of where the other failed: at a late time
+                        # (t ~ 1e6 s) a contact's steps may fall below the time's resolution there, which
+                        # fails the step with a message saying so. Not compared.
+                        self.counts["other_flags_failed_past_the_early_return"] += 1
                     elif b[1] != OK and a[1] == OK:
                         self.report(f"restored in an instance with eventModeUsed={flags[0]}, earlyReturnAllowed={flags[1]}, "
                                     f"fmi3DoStep returned {b[1]} ({where}): {self.step_message}")
