@@ -137,7 +137,7 @@ class Harness:
         self.broken: list[str] = []
         self.recent: collections.deque[str] = collections.deque(maxlen=60)  # the latest calls, for reports
         self.first_trace: list[str] = []  # the calls up to the first broken promise
-        self.dump_dir: Path | None = None  # --dump: where the state serialized last goes at each broken promise
+        self.dump_dir: Path | None = None  # --dump: where the states a broken promise concerns go
         self.last_state: bytes | None = None
         self.log_all = False  # whether the instance logs the category logAll
         self.twin = None  # a second instance, for states restored across instances
@@ -620,7 +620,7 @@ def main():
     ap.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="the FMI version of the FMU (default 2)")
     ap.add_argument("--work-line", choices=("required", "optional"), default="required" if WORK_LINE_REQUIRED else "optional",
                     help="whether every DoStep that runs must log its work line (logAll)")
-    ap.add_argument("--dump", metavar="DIR", help="write the state serialized last at each broken promise to DIR")
+    ap.add_argument("--dump", metavar="DIR", help="at each broken promise, write the state serialized last and the current one to DIR")
     a = ap.parse_args()
     if a.fmi == 3:
         from fuzz_fmi3 import Harness3

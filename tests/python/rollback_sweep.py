@@ -33,8 +33,9 @@ already differ there without any restore, it is counted apart
 pairs of runs, `flag_dependence` shows examples); so is a continuation
 from inside the step whose t + h cannot land on the step's end exactly
 (`cross_time_unreachable`: outputs 1 ulp of time apart). A refusal is legal only
-for a state saved in event mode, by an instance without eventModeUsed, with fmi3Error and a message (issue 41, item 4);
-any other refusal counts as refused.
+for a state saved in event mode, by an instance without eventModeUsed, with
+fmi3Error and a message (issue 41, item 4); any other refusal counts as
+refused.
 
 The sweep, per FMU and standard (one factor at a time, the rest at the
 defaults): the defaults; each parameter whose name holds "tolerance" at
