@@ -246,6 +246,9 @@ impl Instance {
 
     pub fn terminate<F: Call>(&mut self, f: F) -> CallResult {
         self.machine = ModelState::Terminated;
+        // The run ends: an event's change left pending is never made (and
+        // a Terminated state with one would not restore).
+        self.pending = false;
         self.trace(f.name());
         Ok(())
     }

@@ -147,6 +147,28 @@ def test_a_state_with_an_event_pending_in_step_mode_restores_without_event_mode(
         s.freeInstance()
 
 
+def test_a_state_terminated_with_an_event_pending_restores():
+    """Terminated right after a step that returned at an event, its change
+    not made: the state saved then restores (it was refused as "an event
+    pending in instance state Terminated": the FMI 3.0 fuzzer,
+    SpringStopHard seed 9111)."""
+    fmu = str(FMU3_DIR / "PinnedBeamStop.fmu")
+    md = read_model_description(fmu)
+    s = FMU3Slave(guid=md.guid, unzipDirectory=extract(fmu), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="terminated")
+    s.instantiate(eventModeUsed=True, earlyReturnAllowed=True)
+    s.enterInitializationMode(startTime=0.0)
+    s.exitInitializationMode()
+    s.updateDiscreteStates()
+    s.enterStepMode()
+    event, _, early, at = s.doStep(0.0, 100.0)
+    assert event and early
+    s.terminate()
+    blob = s.serializeFMUState(s.getFMUState())
+    s.setFMUState(s.deserializeFMUState(blob))
+    s.freeInstance()
+
+
 def test_a_change_that_fails_at_an_early_return_leaves_a_plain_error_state():
     """Without event mode the FMU makes an early return's discrete change
     itself. HertzStop started at t = 1e6 with mode 15 at 41,665 m/s (inside
